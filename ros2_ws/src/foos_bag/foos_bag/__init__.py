@@ -1,0 +1,1 @@
+"""rosbag2 record, play, info and a numpy reader (filled by the bags issue)."""

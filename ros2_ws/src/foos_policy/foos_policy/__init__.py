@@ -1,0 +1,1 @@
+"""RL training, evaluation and policy_node (filled by the policy issue)."""

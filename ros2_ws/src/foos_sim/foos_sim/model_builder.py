@@ -1,0 +1,258 @@
+"""MJCF of the table, generated from a parameter tree (foos_sim/params/*.yaml).
+
+Every ball contact is an explicit <pair>, so each has exactly the friction, condim and spring the
+parameter file asks for; nothing else in the model collides (rods are driven, figures of different
+rods pass each other as on a real table, and the ball is the only free body).
+"""
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from . import effects as effects_mod
+from .names import AXES, BALL_BODY, BALL_JOINT, FIELD_GEOM, RODS, TEAMS, joint_name
+from .table_params import load_params
+
+# Solver impedance held constant over penetration, so each ball contact is a linear spring-damper and
+# its restitution does not depend on impact speed.
+BALL_SOLIMP = "0.99 0.99 0.001 0.5 2"
+HFIELD_CELL = 0.004  # m, height-field resolution of a dented surface
+
+
+def damping_ratio_for_restitution(restitution: float) -> float:
+    """Damping ratio of a linear spring-damper whose bounce returns `restitution` of the normal speed."""
+    log_e = math.log(restitution)
+    return -log_e / math.sqrt(math.pi**2 + log_e**2)
+
+
+def _fmt(*values: float) -> str:
+    return " ".join(f"{v:.9g}" for v in values)
+
+
+def _sub(parent: ET.Element, tag: str, **attributes) -> ET.Element:
+    return ET.SubElement(parent, tag, {k: str(v) for k, v in attributes.items()})
+
+
+class TableModelBuilder:
+    """Builds the MJCF of one table from its parameter tree."""
+
+    def __init__(self, params: dict):
+        self.params = params
+        self.physics = effects_mod.resolve(params)
+        self.frequency = float(params["contact"]["natural_frequency"])
+        self.ball_contact_geoms: list[tuple[str, str]] = []  # (geom, kind) pairs with the ball
+
+    def solref(self, restitution: float | None = None, damping_ratio: float | None = None) -> str:
+        zeta = damping_ratio if damping_ratio is not None else damping_ratio_for_restitution(restitution)
+        return _fmt(-self.frequency**2, -2.0 * zeta * self.frequency)
+
+    def build(self) -> str:
+        p = self.params
+        solver = p["solver"]
+        root = ET.Element("mujoco", model="foosball_table")
+        _sub(root, "compiler", angle="radian", autolimits="true")
+        option = _sub(
+            root, "option",
+            timestep=solver["timestep"], integrator=solver.get("integrator", "implicitfast"),
+            cone=solver.get("cone", "elliptic"), iterations=solver.get("iterations", 50),
+            tolerance=solver.get("tolerance", 1e-10), noslip_iterations=solver.get("noslip_iterations", 4),
+            noslip_tolerance=solver.get("noslip_tolerance", 1e-8), gravity=_fmt(*self.physics.gravity),
+            density=_fmt(self.physics.air_density), viscosity=_fmt(self.physics.viscosity),
+        )
+        del option
+        _sub(root, "size", memory="8M")
+        visual = _sub(root, "visual")
+        _sub(visual, "global", offwidth=1920, offheight=1080)
+        _sub(visual, "quality", shadowsize=2048)
+        self._assets(root)
+        world = _sub(root, "worldbody")
+        _sub(world, "light", name="overhead", pos="0 0 2.5", dir="0 0 -1", diffuse="0.8 0.8 0.8", castshadow="false")
+        _sub(world, "light", name="fill", pos="0.8 -1.2 2.0", dir="-0.3 0.5 -1", diffuse="0.3 0.3 0.3")
+        self._field(world)
+        self._walls(world)
+        self._ball(world)
+        actuators = _sub(root, "actuator")
+        for rod_name, rod in p["rods"]["layout"].items():
+            self._rod(world, actuators, rod_name, rod)
+        self._contacts(root)
+        ET.indent(root)
+        return ET.tostring(root, encoding="unicode")
+
+    def _assets(self, root: ET.Element) -> None:
+        asset = _sub(root, "asset")
+        _sub(asset, "texture", name="felt", type="2d", builtin="flat", rgb1="0.10 0.45 0.18", width=64, height=64)
+        _sub(asset, "material", name="felt", texture="felt", rgba="1 1 1 1")
+        _sub(asset, "material", name="wall", rgba="0.55 0.40 0.25 1")
+        _sub(asset, "material", name="home", rgba="0.80 0.10 0.10 1")
+        _sub(asset, "material", name="away", rgba="0.10 0.20 0.80 1")
+        _sub(asset, "material", name="rod", rgba="0.75 0.75 0.78 1")
+        _sub(asset, "material", name="ball", rgba="0.95 0.95 0.92 1")
+        if self.physics.dents:
+            self._dented_field_asset(asset)
+
+    def _dented_field_asset(self, asset: ET.Element) -> None:
+        f = self.params["field"]
+        half_x, half_y = f["width"] / 2, f["length"] / 2
+        ncol = int(round(f["width"] / HFIELD_CELL)) + 1
+        nrow = int(round(f["length"] / HFIELD_CELL)) + 1
+        x = np.linspace(-half_x, half_x, ncol)
+        y = np.linspace(-half_y, half_y, nrow)
+        xx, yy = np.meshgrid(x, y)
+        height = np.zeros_like(xx)
+        for dent in self.physics.dents:
+            height += dent.height(np.hypot(xx - dent.x, yy - dent.y))
+        low, high = float(height.min()), float(height.max())
+        span = max(high - low, 1e-6)
+        self._hfield_offset = low
+        elevation = (height - low) / span
+        _sub(
+            asset, "hfield", name="field", nrow=nrow, ncol=ncol,
+            size=_fmt(half_x, half_y, span, f["thickness"]),
+            elevation=" ".join(f"{v:.5f}" for v in elevation.ravel()),
+        )
+
+    def _field(self, world: ET.Element) -> None:
+        f = self.params["field"]
+        half_x, half_y, t = f["width"] / 2, f["length"] / 2, f["thickness"]
+        if self.physics.dents:
+            # The height field's zero elevation sits at its geom origin; lift it so that undisturbed
+            # surface stays at z = 0.
+            _sub(world, "geom", name=FIELD_GEOM, type="hfield", hfield="field", pos=_fmt(0, 0, self._hfield_offset),
+                 material="felt", contype=0, conaffinity=0)
+        else:
+            _sub(world, "geom", name=FIELD_GEOM, type="box", size=_fmt(half_x, half_y, t / 2), pos=_fmt(0, 0, -t / 2),
+                 material="felt", contype=0, conaffinity=0)
+        self.ball_contact_geoms.append((FIELD_GEOM, "field"))
+        gw, depth = f["goal_width"] / 2, f["goal_depth"]
+        for team, sign in (("home", -1.0), ("away", 1.0)):
+            name = f"goal_{team}_floor"
+            _sub(world, "geom", name=name, type="box", size=_fmt(gw, depth / 2, t / 2),
+                 pos=_fmt(0, sign * (half_y + depth / 2), -t / 2), material="felt", contype=0, conaffinity=0)
+            self.ball_contact_geoms.append((name, "field"))
+
+    def _wall(self, world: ET.Element, name: str, center, half_size) -> None:
+        _sub(world, "geom", name=name, type="box", size=_fmt(*half_size), pos=_fmt(*center), material="wall",
+             contype=0, conaffinity=0, rgba="0.55 0.40 0.25 0.35" if "cover" in name else "0.55 0.40 0.25 1")
+        self.ball_contact_geoms.append((name, "wall"))
+
+    def _walls(self, world: ET.Element) -> None:
+        f = self.params["field"]
+        half_x, half_y = f["width"] / 2, f["length"] / 2
+        h, t, gw = f["wall_height"], f["wall_thickness"], f["goal_width"] / 2
+        gh, depth = f["goal_height"], f["goal_depth"]
+        outer_y = half_y + depth + t
+        for side, sign in (("neg_x", -1.0), ("pos_x", 1.0)):
+            self._wall(world, f"wall_side_{side}", (sign * (half_x + t / 2), 0, h / 2), (t / 2, outer_y, h / 2))
+        segment = (half_x - gw) / 2
+        for team, sign in (("home", -1.0), ("away", 1.0)):
+            y_wall = sign * (half_y + t / 2)
+            for side, sx in (("neg_x", -1.0), ("pos_x", 1.0)):
+                self._wall(world, f"wall_end_{team}_{side}", (sx * (gw + segment), y_wall, h / 2), (segment, t / 2, h / 2))
+            self._wall(world, f"wall_end_{team}_lintel", (0, y_wall, (gh + h) / 2), (gw, t / 2, (h - gh) / 2))
+            # The goal pocket behind the mouth: it keeps a scored ball, as a real goal box does.
+            y_pocket = sign * (half_y + depth / 2)
+            for side, sx in (("neg_x", -1.0), ("pos_x", 1.0)):
+                self._wall(world, f"wall_goal_{team}_{side}", (sx * (gw + t / 2), y_pocket, gh / 2), (t / 2, depth / 2, gh / 2))
+            self._wall(world, f"wall_goal_{team}_back", (0, sign * (half_y + depth + t / 2), gh / 2), (gw + t, t / 2, gh / 2))
+            self._wall(world, f"wall_goal_{team}_roof", (0, y_pocket, gh + t / 2), (gw + t, depth / 2 + t / 2, t / 2))
+        ch = f["cover_height"]
+        self._wall(world, "cover", (0, 0, ch + t / 2), (half_x + t, outer_y, t / 2))
+
+    def _ball(self, world: ET.Element) -> None:
+        b = self.params["ball"]
+        body = _sub(world, "body", name=BALL_BODY, pos=_fmt(0, 0, b["radius"]))
+        _sub(body, "freejoint", name=BALL_JOINT)
+        geom = _sub(body, "geom", name="ball", type="sphere", size=_fmt(b["radius"]), mass=_fmt(b["mass"]),
+                    material="ball", contype=0, conaffinity=0)
+        if self.physics.air_density > 0 or self.physics.viscosity > 0:
+            # Ellipsoid fluid model with only the blunt drag term, so drag is |v| v (no lift, no Magnus).
+            geom.set("fluidshape", "ellipsoid")
+            geom.set("fluidcoef", _fmt(self.physics.ball_blunt_drag, 0, 0, 0, 0))
+
+    def _rod(self, world: ET.Element, actuators: ET.Element, rod_name: str, rod: dict) -> None:
+        p = self.params
+        r, fig, f = p["rods"], p["figure"], p["field"]
+        team, role = rod_name.split("_", 1)
+        if team not in TEAMS or role not in RODS:
+            raise ValueError(f"rod `{rod_name}` is not <team>_<rod> with the contract's names")
+        body = _sub(world, "body", name=rod_name, pos=_fmt(0, rod["y"], r["axis_height"]))
+        slide, rotate = (joint_name(team, role, axis) for axis in AXES)
+        _sub(body, "joint", name=slide, type="slide", axis="1 0 0", range=_fmt(-rod["travel"], rod["travel"]),
+             armature=_fmt(r["slide_armature"]))
+        _sub(body, "joint", name=rotate, type="hinge", axis="1 0 0", armature=_fmt(r["rotate_armature"]))
+        length = f["width"] + 2 * f["wall_thickness"] + 0.3
+        _sub(body, "geom", name=f"{rod_name}_rod", type="capsule", fromto=_fmt(-length / 2, 0, 0, length / 2, 0, 0),
+             size=_fmt(r["radius"]), mass=_fmt(r["mass"]), material="rod", contype=0, conaffinity=0)
+        foot_x, foot_y, foot_z = fig["foot_size"]
+        body_x, body_y = fig["body_size"]
+        foot_bottom = -(r["axis_height"] - fig["foot_clearance"])
+        foot_top = foot_bottom + foot_z
+        # Body mass is most of the figure; the foot is the striking block.
+        body_mass, foot_mass = 0.7 * fig["mass"], 0.3 * fig["mass"]
+        n = int(rod["figures"])
+        for i in range(n):
+            x = (i - (n - 1) / 2) * rod["spacing"]
+            name = f"{rod_name}_figure{i}"
+            _sub(body, "geom", name=f"{name}_body", type="box", size=_fmt(body_x / 2, body_y / 2, (fig["head_height"] - foot_top) / 2),
+                 pos=_fmt(x, 0, (fig["head_height"] + foot_top) / 2), mass=_fmt(body_mass), material=team,
+                 contype=0, conaffinity=0)
+            _sub(body, "geom", name=f"{name}_foot", type="box", size=_fmt(foot_x / 2, foot_y / 2, foot_z / 2),
+                 pos=_fmt(x, 0, (foot_top + foot_bottom) / 2), mass=_fmt(foot_mass), material=team,
+                 contype=0, conaffinity=0)
+            self.ball_contact_geoms += [(f"{name}_body", "figure"), (f"{name}_foot", "figure")]
+        for joint, limit, gain, force in (
+            (slide, r["slide_speed_limit"], r["slide_gain"], r["slide_force_limit"]),
+            (rotate, r["rotate_speed_limit"], r["rotate_gain"], r["rotate_torque_limit"]),
+        ):
+            _sub(actuators, "velocity", name=joint, joint=joint, kv=_fmt(gain), ctrlrange=_fmt(-limit, limit),
+                 forcerange=_fmt(-force, force))
+
+    def _contacts(self, root: ET.Element) -> None:
+        p = self.params
+        b = p["ball"]
+        rolling_friction = effects_mod.ROLLING_MASS_FACTOR * b["radius"] * self.physics.rolling_deceleration / p["gravity"]
+        contact = _sub(root, "contact")
+        for geom, kind in self.ball_contact_geoms:
+            if kind == "field":
+                _sub(contact, "pair", geom1="ball", geom2=geom, condim=6,
+                     friction=_fmt(b["sliding_friction"], b["sliding_friction"], b["spin_friction"], rolling_friction, rolling_friction),
+                     solref=self.solref(damping_ratio=p["contact"]["field_damping_ratio"]), solimp=BALL_SOLIMP)
+            elif kind == "wall":
+                e = self.physics.wall_restitution.get(geom, self.physics.wall_restitution.get("*", p["walls"]["restitution"]))
+                _sub(contact, "pair", geom1="ball", geom2=geom, condim=3,
+                     friction=_fmt(p["walls"]["friction"], p["walls"]["friction"], 0, 0, 0),
+                     solref=self.solref(restitution=e), solimp=BALL_SOLIMP)
+            else:
+                _sub(contact, "pair", geom1="ball", geom2=geom, condim=3,
+                     friction=_fmt(p["figures"]["friction"], p["figures"]["friction"], 0, 0, 0),
+                     solref=self.solref(restitution=p["figures"]["restitution"]), solimp=BALL_SOLIMP)
+
+
+def build_mjcf(params_file: str | Path | None = None, params: dict | None = None) -> str:
+    """The MJCF text of a table, from a parameter file (nominal table when None) or a parameter tree."""
+    return TableModelBuilder(params if params is not None else load_params(params_file)).build()
+
+
+def load_model(params_file: str | Path | None = None) -> mujoco.MjModel:
+    """The nominal table (or the one a calibrated parameter file describes) as a MuJoCo model."""
+    model = mujoco.MjModel.from_xml_string(build_mjcf(params_file))
+    _check_actuator_order(model)
+    return model
+
+
+def model_from_params(params: dict) -> mujoco.MjModel:
+    model = mujoco.MjModel.from_xml_string(build_mjcf(params=params))
+    _check_actuator_order(model)
+    return model
+
+
+def _check_actuator_order(model: mujoco.MjModel) -> None:
+    from .names import JOINT_NAMES
+
+    names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i) for i in range(model.nu))
+    if set(names) != set(JOINT_NAMES):
+        raise ValueError(f"model actuators {names} are not the contract's 16 rod joints")

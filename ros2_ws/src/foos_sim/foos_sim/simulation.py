@@ -1,0 +1,164 @@
+"""The ROS-free simulation API shared by sim_node, the RL env and calibration.
+
+    sim = TableSimulation()                       # nominal table
+    sim.reset(ball_position=(0.0, -0.2), ball_velocity=(0.3, 2.0))
+    sim.set_command("home", [0, 0, 0, 0, 0, 20.0, 0, 0])
+    goal = sim.step(100)                          # 100 physics steps; "home", "away" or None
+    x, y, z = sim.ball_position()
+
+Commands follow the contract: per team 8 target joint velocities in the table frame
+[goalie_slide, goalie_rotate, defence_slide, ..., attack_rotate], clipped to the drives' limits.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional, Sequence
+
+import mujoco
+import numpy as np
+
+from .model_builder import model_from_params
+from .names import BALL_JOINT, COMMAND_SIZE, JOINT_NAMES, TEAMS, team_joint_names
+from .table_params import load_params
+
+HOME_SCORES = "home"  # ball centre crosses y = +half_length inside the away goal mouth
+AWAY_SCORES = "away"
+
+
+class CommandError(ValueError):
+    """A rod command that a drive must refuse (wrong length, NaN or infinite values, unknown team)."""
+
+
+class TableSimulation:
+    """One table: a MuJoCo model and data with the contract's joints, commands and goal rules."""
+
+    def __init__(self, params_file: str | Path | None = None, params: dict | None = None):
+        self.params = params if params is not None else load_params(params_file)
+        self.model = model_from_params(self.params)
+        self.data = mujoco.MjData(self.model)
+        field = self.params["field"]
+        self.half_length = field["length"] / 2
+        self.half_width = field["width"] / 2
+        self.goal_half_width = field["goal_width"] / 2
+        self.ball_radius = float(self.params["ball"]["radius"])
+        self.timestep = float(self.model.opt.timestep)
+
+        ball_joint = self.model.joint(BALL_JOINT)
+        self._ball_qpos = slice(ball_joint.qposadr[0], ball_joint.qposadr[0] + 7)
+        self._ball_qvel = slice(ball_joint.dofadr[0], ball_joint.dofadr[0] + 6)
+        joints = [self.model.joint(name) for name in JOINT_NAMES]
+        self._joint_qpos = np.array([j.qposadr[0] for j in joints])
+        self._joint_qvel = np.array([j.dofadr[0] for j in joints])
+        self._joint_range = np.array([j.range if j.limited[0] else (-np.inf, np.inf) for j in joints])
+        # ctrl indices of each team's 8 drives, in command order
+        self._team_ctrl = {
+            team: np.array([self.model.actuator(name).id for name in team_joint_names(team)]) for team in TEAMS
+        }
+        self.command_limits = np.array([self.model.actuator(n).ctrlrange[1] for n in team_joint_names("home")])
+        self.reset()
+
+    # --- state ---------------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def ball_position(self) -> np.ndarray:
+        return self.data.qpos[self._ball_qpos][:3].copy()
+
+    def ball_velocity(self) -> np.ndarray:
+        """Linear velocity of the ball centre, table frame."""
+        return self.data.qvel[self._ball_qvel][:3].copy()
+
+    def ball_angular_velocity(self) -> np.ndarray:
+        """Angular velocity, table frame (MuJoCo keeps a free joint's in the body frame)."""
+        local = self.data.qvel[self._ball_qvel][3:]
+        world = np.zeros(3)
+        mujoco.mju_rotVecQuat(world, local, self.data.qpos[self._ball_qpos][3:])
+        return world
+
+    def joint_positions(self) -> np.ndarray:
+        """The 16 rod joints in JOINT_NAMES order (m for slides, rad for rotations)."""
+        return self.data.qpos[self._joint_qpos].copy()
+
+    def joint_velocities(self) -> np.ndarray:
+        return self.data.qvel[self._joint_qvel].copy()
+
+    def joint_efforts(self) -> np.ndarray:
+        return self.data.actuator_force[np.concatenate([self._team_ctrl[t] for t in TEAMS])].copy()
+
+    # --- control -------------------------------------------------------------------------------
+    def validate_command(self, command: Sequence[float]) -> np.ndarray:
+        """The command as 8 finite floats, or CommandError saying what is wrong with it."""
+        values = np.asarray(command, dtype=float).ravel()
+        if values.size != COMMAND_SIZE:
+            raise CommandError(f"a rod command has {COMMAND_SIZE} values, got {values.size}")
+        if not np.all(np.isfinite(values)):
+            raise CommandError("a rod command must not contain NaN or infinite values")
+        return values
+
+    def set_command(self, team: str, command: Sequence[float]) -> np.ndarray:
+        """Set one team's 8 target joint velocities; returns them clipped to the drive limits."""
+        if team not in self._team_ctrl:
+            raise CommandError(f"unknown team `{team}` (expected one of {TEAMS})")
+        clipped = np.clip(self.validate_command(command), -self.command_limits, self.command_limits)
+        self.data.ctrl[self._team_ctrl[team]] = clipped
+        return clipped
+
+    def stop_team(self, team: str) -> None:
+        self.data.ctrl[self._team_ctrl[team]] = 0.0
+
+    # --- stepping ------------------------------------------------------------------------------
+    def step(self, n: int = 1) -> Optional[str]:
+        """Advance n physics steps; returns the team that has scored ("home"/"away") or None."""
+        mujoco.mj_step(self.model, self.data, nstep=int(n))
+        return self.goal()
+
+    def goal(self) -> Optional[str]:
+        """Which team has scored: the ball centre is past an end line, inside the mouth."""
+        x, y = self.data.qpos[self._ball_qpos][:2]
+        if abs(x) > self.goal_half_width:
+            return None
+        if y > self.half_length:
+            return HOME_SCORES
+        if y < -self.half_length:
+            return AWAY_SCORES
+        return None
+
+    def ball_on_field(self) -> bool:
+        x, y = self.data.qpos[self._ball_qpos][:2]
+        return abs(x) <= self.half_width and abs(y) <= self.half_length
+
+    # --- reset ---------------------------------------------------------------------------------
+    def reset(
+        self,
+        ball_position: Sequence[float] = (0.0, 0.0),
+        ball_velocity: Sequence[float] = (0.0, 0.0),
+        rolling: bool = True,
+        joint_positions: Optional[Sequence[float]] = None,
+    ) -> None:
+        """Rods centred and hanging (or at joint_positions), drives stopped, ball on the surface.
+
+        ball_position is (x, y) or (x, y, z); ball_velocity (vx, vy) or (vx, vy, vz). A rolling ball
+        gets the spin of rolling without slip; otherwise it starts sliding with no spin.
+        """
+        mujoco.mj_resetData(self.model, self.data)
+        position = np.zeros(3)
+        position[2] = self.ball_radius
+        position[: len(ball_position)] = ball_position
+        velocity = np.zeros(3)
+        velocity[: len(ball_velocity)] = ball_velocity
+        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
+            raise ValueError("ball state must be finite")
+        qpos = self.data.qpos[self._ball_qpos]
+        qpos[:3] = position
+        qpos[3:] = (1.0, 0.0, 0.0, 0.0)
+        qvel = self.data.qvel[self._ball_qvel]
+        qvel[:3] = velocity
+        # Identity orientation: the body frame is the table frame, so this spin is in table axes.
+        qvel[3:] = (-velocity[1] / self.ball_radius, velocity[0] / self.ball_radius, 0.0) if rolling else 0.0
+        if joint_positions is not None:
+            values = np.asarray(joint_positions, dtype=float)
+            if values.shape != (len(JOINT_NAMES),):
+                raise ValueError(f"joint_positions holds {len(JOINT_NAMES)} values")
+            self.data.qpos[self._joint_qpos] = np.clip(values, self._joint_range[:, 0], self._joint_range[:, 1])
+        mujoco.mj_forward(self.model, self.data)

@@ -1,0 +1,1 @@
+"""Camera tracker for the foosball table (filled by the vision issue)."""
