@@ -23,6 +23,8 @@ setup(
     entry_points={
         "console_scripts": [
             "sim_node = foos_sim.sim_node:main",
+            "calibrate = foos_sim.calibration.cli:main",
+            "generate_measured = foos_sim.calibration.generate:main",
         ],
     },
 )

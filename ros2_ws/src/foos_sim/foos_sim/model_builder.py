@@ -6,6 +6,7 @@ rods pass each other as on a real table, and the ball is the only free body).
 """
 from __future__ import annotations
 
+import functools
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -24,9 +25,65 @@ HFIELD_CELL = 0.004  # m, height-field resolution of a dented surface
 
 
 def damping_ratio_for_restitution(restitution: float) -> float:
-    """Damping ratio of a linear spring-damper whose bounce returns `restitution` of the normal speed."""
+    """Damping ratio of a continuous linear spring-damper whose bounce returns `restitution`."""
     log_e = math.log(restitution)
     return -log_e / math.sqrt(math.pi**2 + log_e**2)
+
+
+# Contact onsets fall anywhere within a step; bounces are averaged over these fractions of a step.
+_ONSET_PHASES = np.linspace(0.05, 0.95, 7)
+
+
+def _bounce_model(frequency: float, timestep: float) -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_string(f"""
+<mujoco>
+  <option timestep="{timestep!r}" gravity="0 0 0" integrator="implicitfast" cone="elliptic"/>
+  <worldbody>
+    <geom name="wall" type="box" size="0.05 0.1 0.1" pos="0.05 0 0" contype="0" conaffinity="0"/>
+    <body name="ball"><joint name="x" type="slide" axis="1 0 0"/>
+      <geom name="ball" type="sphere" size="0.02" mass="0.02" contype="0" conaffinity="0"/></body>
+  </worldbody>
+  <contact><pair geom1="ball" geom2="wall" condim="1" solref="{_fmt(-frequency**2, -frequency)}" solimp="{BALL_SOLIMP}"/></contact>
+</mujoco>""")
+
+
+def _mean_discrete_restitution(model: mujoco.MjModel, damping_ratio: float, frequency: float) -> float:
+    model.pair_solref[0] = (-frequency**2, -2.0 * damping_ratio * frequency)
+    data = mujoco.MjData(model)
+    speed, h = 1.0, model.opt.timestep
+    ratios = []
+    for phase in _ONSET_PHASES:
+        mujoco.mj_resetData(model, data)
+        data.qpos[0] = -0.02 - phase * speed * h
+        data.qvel[0] = speed
+        in_contact = False
+        for _ in range(int(50.0 / (frequency * h)) + 10):
+            mujoco.mj_step(model, data)
+            touching = data.qpos[0] > -0.02
+            in_contact |= touching
+            if in_contact and not touching:
+                break
+        ratios.append(-data.qvel[0] / speed)
+    return float(np.mean(ratios))
+
+
+@functools.lru_cache(maxsize=128)
+def discrete_damping_ratio(restitution: float, frequency: float, timestep: float) -> float:
+    """Damping ratio whose bounce, as MuJoCo integrates it at this timestep, returns `restitution`.
+
+    The continuous formula is off by up to 0.07 at frequency * timestep = 0.3 (contact onset falls
+    between steps and damping acts explicitly), so the ratio is found by bisection on a one-ball
+    model with the same solver settings, averaging over where in a step the contact begins.
+    """
+    model = _bounce_model(frequency, timestep)
+    low, high = 0.0, 2.0  # restitution falls as damping rises
+    for _ in range(30):
+        middle = 0.5 * (low + high)
+        if _mean_discrete_restitution(model, middle, frequency) > restitution:
+            low = middle
+        else:
+            high = middle
+    return 0.5 * (low + high)
 
 
 def _fmt(*values: float) -> str:
@@ -44,11 +101,13 @@ class TableModelBuilder:
         self.params = params
         self.physics = effects_mod.resolve(params)
         self.frequency = float(params["contact"]["natural_frequency"])
+        self.timestep = float(params["solver"]["timestep"])
         self.ball_contact_geoms: list[tuple[str, str]] = []  # (geom, kind) pairs with the ball
 
     def solref(self, restitution: float | None = None, damping_ratio: float | None = None) -> str:
-        zeta = damping_ratio if damping_ratio is not None else damping_ratio_for_restitution(restitution)
-        return _fmt(-self.frequency**2, -2.0 * zeta * self.frequency)
+        if damping_ratio is None:
+            damping_ratio = discrete_damping_ratio(float(restitution), self.frequency, self.timestep)
+        return _fmt(-self.frequency**2, -2.0 * damping_ratio * self.frequency)
 
     def build(self) -> str:
         p = self.params
