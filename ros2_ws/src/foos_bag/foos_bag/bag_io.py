@@ -276,10 +276,7 @@ class BagWriter:
         self.path = Path(path)
         if storage not in STORAGE_SUFFIX:
             raise BagError(f"unknown storage {storage!r}: use one of {', '.join(STORAGE_SUFFIX)}")
-        if self.path.exists():
-            raise BagError(f"{self.path} exists already; refusing to overwrite it (choose another name or delete it)")
-        if not self.path.parent.exists():
-            raise BagError(f"cannot create {self.path}: its parent directory {self.path.parent} does not exist")
+        self.check_new_path(self.path)
         if max_bag_size < 0 or max_bag_duration < 0:
             raise BagError("split limits must be positive (0 = no split)")
         self.storage_id = storage
@@ -301,6 +298,15 @@ class BagWriter:
         self._file_count = 0
         self._closed = False
         self._open_next_file()
+
+    @staticmethod
+    def check_new_path(path: str | Path) -> None:
+        """BagError unless a bag can be created at `path` (it must not exist; its parent must)."""
+        path = Path(path)
+        if path.exists():
+            raise BagError(f"{path} exists already; refusing to overwrite it (choose another name or delete it)")
+        if not path.parent.exists():
+            raise BagError(f"cannot create {path}: its parent directory {path.parent} does not exist")
 
     # -- context manager ------------------------------------------------------------------
     def __enter__(self) -> BagWriter:
