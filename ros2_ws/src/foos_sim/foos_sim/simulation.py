@@ -24,6 +24,10 @@ from .table_params import load_params
 HOME_SCORES = "home"  # ball centre crosses y = +half_length inside the away goal mouth
 AWAY_SCORES = "away"
 
+# Goals are checked at least this often (5 ms at 20 kHz): a 10 m/s shot spends about 16 ms in a pocket
+# before it could bounce back out, so no goal is missed between checks.
+GOAL_CHECK_STEPS = 100
+
 
 class CommandError(ValueError):
     """A rod command that a drive must refuse (wrong length, NaN or infinite values, unknown team)."""
@@ -107,14 +111,42 @@ class TableSimulation:
     def stop_team(self, team: str) -> None:
         self.data.ctrl[self._team_ctrl[team]] = 0.0
 
+    def place_ball(self, position: Sequence[float], velocity: Sequence[float] = (0.0, 0.0), rolling: bool = True) -> None:
+        """Put the ball somewhere with a velocity (a hand launch), leaving the rods as they are."""
+        position, velocity = _ball_vectors(position, velocity, self.ball_radius)
+        qpos = self.data.qpos[self._ball_qpos]
+        qpos[:3] = position
+        qpos[3:] = (1.0, 0.0, 0.0, 0.0)
+        qvel = self.data.qvel[self._ball_qvel]
+        qvel[:3] = velocity
+        # Identity orientation: the body frame is the table frame, so this spin is in table axes.
+        qvel[3:] = (-velocity[1] / self.ball_radius, velocity[0] / self.ball_radius, 0.0) if rolling else 0.0
+        self._goal = None
+        mujoco.mj_forward(self.model, self.data)
+
     # --- stepping ------------------------------------------------------------------------------
     def step(self, n: int = 1) -> Optional[str]:
-        """Advance n physics steps; returns the team that has scored ("home"/"away") or None."""
-        mujoco.mj_step(self.model, self.data, nstep=int(n))
-        return self.goal()
+        """Advance n physics steps; returns the team that has scored since the last reset, or None.
+
+        A goal is latched: once the ball centre has crossed an end line inside the mouth, the goal
+        stands until reset(), even if the ball bounces back out of the pocket.
+        """
+        remaining = int(n)
+        while remaining > 0:
+            chunk = min(remaining, GOAL_CHECK_STEPS)
+            mujoco.mj_step(self.model, self.data, nstep=chunk)
+            remaining -= chunk
+            if self._goal is None:
+                self._goal = self._goal_now()
+        return self._goal
 
     def goal(self) -> Optional[str]:
-        """Which team has scored: the ball centre is past an end line, inside the mouth."""
+        """The team that has scored since the last reset ("home" attacks +y), or None."""
+        if self._goal is None:
+            self._goal = self._goal_now()
+        return self._goal
+
+    def _goal_now(self) -> Optional[str]:
         x, y = self.data.qpos[self._ball_qpos][:2]
         if abs(x) > self.goal_half_width:
             return None
@@ -123,6 +155,17 @@ class TableSimulation:
         if y < -self.half_length:
             return AWAY_SCORES
         return None
+
+    def ball_penetration(self) -> float:
+        """Deepest overlap (m, >= 0) of the ball with anything it touches, field included."""
+        contacts = self.data.contact
+        if self.data.ncon == 0:
+            return 0.0
+        return max(0.0, -float(np.min(contacts.dist[: self.data.ncon])))
+
+    def ball_is_clear(self, tolerance: float = 1e-4) -> bool:
+        """True when the ball overlaps nothing (as placed by place_ball/reset): no figure, no wall."""
+        return self.ball_penetration() <= tolerance
 
     def ball_on_field(self) -> bool:
         x, y = self.data.qpos[self._ball_qpos][:2]
@@ -141,24 +184,26 @@ class TableSimulation:
         ball_position is (x, y) or (x, y, z); ball_velocity (vx, vy) or (vx, vy, vz). A rolling ball
         gets the spin of rolling without slip; otherwise it starts sliding with no spin.
         """
+        _ball_vectors(ball_position, ball_velocity, self.ball_radius)  # refuse bad input before resetting
         mujoco.mj_resetData(self.model, self.data)
-        position = np.zeros(3)
-        position[2] = self.ball_radius
-        position[: len(ball_position)] = ball_position
-        velocity = np.zeros(3)
-        velocity[: len(ball_velocity)] = ball_velocity
-        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
-            raise ValueError("ball state must be finite")
-        qpos = self.data.qpos[self._ball_qpos]
-        qpos[:3] = position
-        qpos[3:] = (1.0, 0.0, 0.0, 0.0)
-        qvel = self.data.qvel[self._ball_qvel]
-        qvel[:3] = velocity
-        # Identity orientation: the body frame is the table frame, so this spin is in table axes.
-        qvel[3:] = (-velocity[1] / self.ball_radius, velocity[0] / self.ball_radius, 0.0) if rolling else 0.0
         if joint_positions is not None:
             values = np.asarray(joint_positions, dtype=float)
-            if values.shape != (len(JOINT_NAMES),):
-                raise ValueError(f"joint_positions holds {len(JOINT_NAMES)} values")
+            if values.shape != (len(JOINT_NAMES),) or not np.all(np.isfinite(values)):
+                raise ValueError(f"joint_positions holds {len(JOINT_NAMES)} finite values")
             self.data.qpos[self._joint_qpos] = np.clip(values, self._joint_range[:, 0], self._joint_range[:, 1])
-        mujoco.mj_forward(self.model, self.data)
+        self.place_ball(ball_position, ball_velocity, rolling)
+
+
+def _ball_vectors(position: Sequence[float], velocity: Sequence[float], radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y[, z]) and (vx, vy[, vz]) as 3-vectors; z defaults to resting on the surface."""
+    p = np.asarray(position, dtype=float).ravel()
+    v = np.asarray(velocity, dtype=float).ravel()
+    if p.size not in (2, 3) or v.size not in (2, 3):
+        raise ValueError("ball position and velocity have 2 or 3 components")
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(v))):
+        raise ValueError("ball state must be finite")
+    full_p = np.array([0.0, 0.0, radius])
+    full_p[: p.size] = p
+    full_v = np.zeros(3)
+    full_v[: v.size] = v
+    return full_p, full_v

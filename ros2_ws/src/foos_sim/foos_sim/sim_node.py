@@ -1,0 +1,219 @@
+"""sim_node: the simulated table on the contract's topics.
+
+Publishes /joint_states, /ball/state, /ball/detection, /sim/goal (std_msgs/String: the team that
+scored) and, with publish_clock, /clock. Takes /home/rods/command and /away/rods/command
+(Float64MultiArray, 8 target velocities). Service /sim/reset (std_srvs/Trigger): rods centred, ball
+served again, score kept.
+
+Time: with publish_clock false, stamps are this node's system clock at the start plus simulated time,
+and the simulation is paced at real_time_factor. With publish_clock true, simulated time is the ROS
+time (it starts at 0 and goes out on /clock); real_time_factor 0 runs as fast as the CPU allows.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+
+import rclpy
+from rclpy.time import Time
+from geometry_msgs.msg import PointStamped
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
+from std_srvs.srv import Trigger
+
+from .names import JOINT_NAMES, TEAMS
+from .sim_runner import Detection, Goal, RunnerConfig, SimRunner, StateSample
+from .simulation import CommandError, TableSimulation
+from .table_params import ParamsError
+
+FRAME = "table"
+BEHIND_RESYNC_S = 0.5
+PARAMETERS = (
+    ("params_file", "", "table parameter file (YAML); empty = the nominal regulation table"),
+    ("publish_rate", 100.0, "Hz of /joint_states and /ball/state (ground truth)"),
+    ("detection_rate", 120.0, "Hz of /ball/detection, the simulated camera's frame rate"),
+    ("real_time_factor", 1.0, "simulated seconds per wall second; 0 = as fast as possible (needs publish_clock)"),
+    ("publish_clock", False, "run on simulated time starting at 0 and publish it on /clock"),
+    ("seed", 0, "random seed of serves, detection noise and dropouts"),
+    ("serve", "random", "none: ball_* initial state, kept after a goal; center: ball at rest at the centre "
+     "after each goal; random: a hand-launch-like roll (0.3-3 m/s, random place) whenever the ball rests or scores"),
+    ("ball_x", 0.0, "initial ball x (m) with serve none"),
+    ("ball_y", 0.0, "initial ball y (m) with serve none"),
+    ("ball_vx", 0.0, "initial ball vx (m/s) with serve none"),
+    ("ball_vy", 0.0, "initial ball vy (m/s) with serve none"),
+    ("detection_noise", 0.0, "m, std of Gaussian noise added to detections (x and y)"),
+    ("detection_latency", 0.0, "s from a frame's capture to its detection's publication (stamp = capture)"),
+    ("detection_dropout", 0.0, "probability that a frame yields no detection"),
+    ("command_timeout", 0.5, "s without a command after which a team's rods are stopped (watchdog)"),
+)  # when pacing falls this far behind the wall clock, stop trying to catch up
+
+
+class SimNode(Node):
+    def __init__(self):
+        super().__init__("sim_node")
+        for name, default, description in PARAMETERS:
+            # Dynamic typing lets users write `-p real_time_factor:=0` for a float parameter.
+            self.declare_parameter(name, default, ParameterDescriptor(description=description, dynamic_typing=True))
+        param = lambda name: self.get_parameter(name).value  # noqa: E731
+        params_file = param("params_file") or None
+        config = RunnerConfig(
+            publish_rate=float(param("publish_rate")),
+            detection_rate=float(param("detection_rate")),
+            detection_noise=float(param("detection_noise")),
+            detection_latency=float(param("detection_latency")),
+            detection_dropout=float(param("detection_dropout")),
+            command_timeout=float(param("command_timeout")),
+            serve=str(param("serve")),
+            initial_ball=(float(param("ball_x")), float(param("ball_y")), float(param("ball_vx")), float(param("ball_vy"))),
+            seed=int(param("seed")),
+        )
+        self.real_time_factor = float(param("real_time_factor"))
+        if not (math.isfinite(self.real_time_factor) and self.real_time_factor >= 0):
+            raise ValueError(f"real_time_factor must be >= 0, got {self.real_time_factor}")
+        self.publish_clock = bool(param("publish_clock"))
+        if self.real_time_factor == 0 and not self.publish_clock:
+            raise ValueError("real_time_factor 0 (as fast as possible) needs publish_clock:=true")
+
+        self.runner = SimRunner(TableSimulation(params_file), config)
+        self._stamp_base_ns = 0 if self.publish_clock else self.get_clock().now().nanoseconds
+
+        self.joint_pub = self.create_publisher(JointState, "/joint_states", 10)
+        self.state_pub = self.create_publisher(Odometry, "/ball/state", 10)
+        self.detection_pub = self.create_publisher(PointStamped, "/ball/detection", 10)
+        self.goal_pub = self.create_publisher(String, "/sim/goal", 10)
+        self.clock_pub = self.create_publisher(Clock, "/clock", 10) if self.publish_clock else None
+        for team in TEAMS:
+            self.create_subscription(
+                Float64MultiArray, f"/{team}/rods/command", lambda msg, team=team: self.on_command(team, msg), 10
+            )
+        self.create_service(Trigger, "/sim/reset", self.on_reset)
+        self.get_logger().info(
+            f"table from {params_file or 'the nominal parameters'}; physics {1 / self.runner.sim.timestep:.0f} Hz, "
+            f"states {config.publish_rate:g} Hz, detections {config.detection_rate:g} Hz, serve '{config.serve}', "
+            + ("sim time on /clock" if self.publish_clock else "real time")
+            + (f" x{self.real_time_factor:g}" if self.real_time_factor > 0 else " as fast as possible")
+        )
+
+    # --- inputs --------------------------------------------------------------------------------
+    def on_command(self, team: str, msg: Float64MultiArray) -> None:
+        try:
+            applied = self.runner.command(team, msg.data)
+        except CommandError as error:
+            self.get_logger().warning(f"/{team}/rods/command refused: {error}; rods keep their last command",
+                                      throttle_duration_sec=1.0)
+            return
+        if any(abs(a - v) > 1e-12 for a, v in zip(applied, msg.data)):
+            self.get_logger().info(f"/{team}/rods/command clipped to the drive limits", throttle_duration_sec=5.0)
+
+    def on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        self.runner.reset()
+        response.success = True
+        response.message = f"reset at t={self.runner.time:.3f} s; score home {self.runner.score['home']} - away {self.runner.score['away']}"
+        self.get_logger().info(response.message)
+        return response
+
+    # --- outputs -------------------------------------------------------------------------------
+    def stamp(self, sim_time: float):
+        ns = self._stamp_base_ns + int(round(sim_time * 1e9))
+        return Time(nanoseconds=ns).to_msg()
+
+    def publish(self, event) -> None:
+        if isinstance(event, StateSample):
+            self.publish_state(event)
+        elif isinstance(event, Detection):
+            msg = PointStamped()
+            msg.header.stamp = self.stamp(event.capture_time)
+            msg.header.frame_id = FRAME
+            msg.point.x, msg.point.y, msg.point.z = (float(v) for v in event.position)
+            self.detection_pub.publish(msg)
+        elif isinstance(event, Goal):
+            self.goal_pub.publish(String(data=event.team))
+            self.get_logger().info(
+                f"goal for {event.team} at t={event.time:.2f} s: home {event.score['home']} - away {event.score['away']}"
+            )
+
+    def publish_state(self, sample: StateSample) -> None:
+        stamp = self.stamp(sample.time)
+        if self.clock_pub is not None:
+            self.clock_pub.publish(Clock(clock=stamp))
+        joints = JointState()
+        joints.header.stamp = stamp
+        joints.name = list(JOINT_NAMES)
+        joints.position = sample.joint_positions.tolist()
+        joints.velocity = sample.joint_velocities.tolist()
+        joints.effort = sample.joint_efforts.tolist()
+        self.joint_pub.publish(joints)
+        odom = Odometry()
+        odom.header.stamp = stamp
+        odom.header.frame_id = FRAME
+        odom.child_frame_id = "ball"
+        p, v, w = sample.ball_position, sample.ball_velocity, sample.ball_angular_velocity
+        odom.pose.pose.position.x, odom.pose.pose.position.y, odom.pose.pose.position.z = float(p[0]), float(p[1]), float(p[2])
+        odom.pose.pose.orientation.w = 1.0
+        # The child frame keeps the table's axes, so velocities are in table axes as the contract asks.
+        odom.twist.twist.linear.x, odom.twist.twist.linear.y, odom.twist.twist.linear.z = float(v[0]), float(v[1]), float(v[2])
+        odom.twist.twist.angular.x, odom.twist.twist.angular.y, odom.twist.twist.angular.z = float(w[0]), float(w[1]), float(w[2])
+        self.state_pub.publish(odom)
+
+    # --- the loop ------------------------------------------------------------------------------
+    def run(self, executor: SingleThreadedExecutor) -> None:
+        """Advance event by event; pace against the wall clock unless running as fast as possible."""
+        wall_start, sim_start = time.monotonic(), self.runner.time
+        while rclpy.ok():
+            for event in self.runner.advance():
+                self.publish(event)
+            if self.real_time_factor == 0:
+                _spin_once(executor, 0.0)
+                continue
+            due = wall_start + (self.runner.next_event_time() - sim_start) / self.real_time_factor
+            if time.monotonic() - due > BEHIND_RESYNC_S:
+                self.get_logger().warning("the simulation cannot keep up with the requested real-time factor",
+                                          throttle_duration_sec=5.0)
+                wall_start, sim_start = time.monotonic(), self.runner.time
+                continue
+            while True:
+                remaining = due - time.monotonic()
+                _spin_once(executor, max(remaining, 0.0))
+                if remaining <= 0:
+                    break
+
+
+def _spin_once(executor: SingleThreadedExecutor, timeout: float) -> None:
+    try:
+        executor.spin_once(timeout_sec=timeout)
+    except Exception:
+        # A signal can shut the context down between rclpy.ok() and the wait: that is a shutdown.
+        if rclpy.ok():
+            raise
+        raise ExternalShutdownException() from None
+
+
+def main(args=None) -> int:
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = SimNode()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        node.run(executor)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except (ParamsError, ValueError, TypeError, InvalidParameterTypeException, InvalidParameterValueException) as error:
+        print(f"sim_node: {error}", file=sys.stderr)
+        return 2
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
