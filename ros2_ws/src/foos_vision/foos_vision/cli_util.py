@@ -1,0 +1,35 @@
+"""What every foos_vision command does alike: one-line errors, non-zero exits, single-threaded OpenCV."""
+from __future__ import annotations
+
+import os
+import sys
+from typing import Callable
+
+import cv2
+
+from .errors import VisionError
+
+
+def quiet_threads() -> None:
+    """The table's CPUs are shared: one OpenCV thread, as the benchmark measures it."""
+    cv2.setNumThreads(1)
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+
+def run_cli(prog: str, body: Callable[[], int]) -> None:
+    """Run a command body; bad input ends in one line on stderr and exit status 2 (1 for failures)."""
+    quiet_threads()
+    try:
+        code = body()
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        code = 130
+    except (VisionError, ValueError, OSError) as error:
+        message = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        print(f"{prog}: error: {message}", file=sys.stderr)
+        code = 2
+    except Exception as error:  # a library's own error type (foos_sim.ParamsError, foos_bag.BagError, ...)
+        text = str(error).strip().splitlines()
+        print(f"{prog}: error: {type(error).__name__}: {text[0] if text else ''}", file=sys.stderr)
+        code = 1
+    sys.exit(code)

@@ -1,0 +1,188 @@
+"""Finding the ball in a frame: a colour model, a size prior from the homography, sub-pixel centres.
+
+The colour model is a box in OpenCV's 8-bit Lab space (lightness range, a/b centre and half width).
+Named colours start from a broad prototype; `learn` narrows it to the pixels of confidently detected
+balls, so the model ends up fitted to the real ball under the real lights. `auto` tries each named
+prototype on the first frames and keeps the one that finds a ball-sized, round blob most often.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable, Optional
+
+import cv2
+import numpy as np
+
+BALL_COLOR_NAMES = ("white", "yellow", "orange", "red")
+
+
+@dataclass(frozen=True)
+class ColourModel:
+    name: str
+    l_min: int
+    l_max: int
+    a: float
+    b: float
+    ab_tol: float  # half width of the a/b box
+
+    def mask(self, lab: np.ndarray) -> np.ndarray:
+        lo = (self.l_min, max(0, int(self.a - self.ab_tol)), max(0, int(self.b - self.ab_tol)))
+        hi = (self.l_max, min(255, int(self.a + self.ab_tol)), min(255, int(self.b + self.ab_tol)))
+        return cv2.inRange(lab, lo, hi)
+
+
+# Prototypes from the reflectance of typical balls under neutral light: broad on purpose.
+PROTOTYPES = {
+    "white": ColourModel("white", 150, 255, 128, 130, 14),
+    "yellow": ColourModel("yellow", 90, 255, 122, 192, 26),
+    "orange": ColourModel("orange", 70, 255, 160, 182, 24),
+    "red": ColourModel("red", 50, 230, 185, 165, 24),
+}
+
+
+def colour_model(name: str) -> ColourModel:
+    if name not in PROTOTYPES:
+        raise ValueError(f"unknown ball colour `{name}` (one of auto, {', '.join(BALL_COLOR_NAMES)})")
+    return PROTOTYPES[name]
+
+
+def learn_colour(model: ColourModel, lab_pixels: np.ndarray) -> ColourModel:
+    """The model narrowed to the Lab pixels of confidently detected balls (N, 3)."""
+    if len(lab_pixels) < 30:
+        return model
+    lab_pixels = lab_pixels.astype(float)
+    a, b = np.median(lab_pixels[:, 1]), np.median(lab_pixels[:, 2])
+    spread = np.percentile(np.abs(lab_pixels[:, 1:] - (a, b)), 90, axis=0).max()
+    tol = float(np.clip(1.5 * spread + 4, 8, model.ab_tol))
+    # The core is the lit part of the ball; its shaded rim is darker, so lightness is only ever relaxed.
+    l_min = int(min(model.l_min, max(20.0, np.percentile(lab_pixels[:, 0], 3) - 15)))
+    return replace(model, a=float(a), b=float(b), ab_tol=tol, l_min=l_min)
+
+
+@dataclass
+class Candidate:
+    u: float  # sub-pixel centre, distorted image pixels
+    v: float
+    area_ratio: float  # visible pixels / expected disc area
+    roundness: float  # 1 for a disc, lower for streaks and bars
+    score: float
+
+
+def _refine_centre(mask: np.ndarray, u: float, v: float, radius: float) -> tuple[float, float, float]:
+    """Centroid of the mask inside a disc around (u, v), iterated; returns (u, v, pixel count)."""
+    h, w = mask.shape
+    count = 0.0
+    for _ in range(3):
+        x0, x1 = max(0, int(u - 1.4 * radius)), min(w, int(u + 1.4 * radius) + 2)
+        y0, y1 = max(0, int(v - 1.4 * radius)), min(h, int(v + 1.4 * radius) + 2)
+        if x1 <= x0 or y1 <= y0:
+            break
+        sub = mask[y0:y1, x0:x1]
+        yy, xx = np.nonzero(sub)
+        if len(xx) == 0:
+            break
+        xx = xx + x0
+        yy = yy + y0
+        near = (xx - u) ** 2 + (yy - v) ** 2 <= (1.3 * radius) ** 2
+        if not np.any(near):
+            break
+        u, v, count = float(xx[near].mean()), float(yy[near].mean()), float(near.sum())
+    return u, v, count
+
+
+def _fit_known_radius(mask: np.ndarray, u: float, v: float, radius: float) -> tuple[float, float]:
+    """Centre of a partly hidden disc: fit a circle of the expected radius to its outline pixels.
+
+    Outline pixels on the occluder's edge lie well inside the circle; a Tukey weight ignores them.
+    """
+    h, w = mask.shape
+    r = int(1.6 * radius) + 2
+    x0, y0 = max(0, int(u) - r), max(0, int(v) - r)
+    sub = np.ascontiguousarray(mask[y0:min(h, int(v) + r + 1), x0:min(w, int(u) + r + 1)])
+    contours, _ = cv2.findContours(sub, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        return u, v
+    points = max(contours, key=len).reshape(-1, 2).astype(float) + (x0, y0)
+    if len(points) < 8:
+        return u, v
+    c = np.array([u, v])
+    target = radius - 0.5  # outline pixel centres sit half a pixel inside the edge
+    for _ in range(8):
+        d = points - c
+        dist = np.maximum(np.linalg.norm(d, axis=1), 1e-6)
+        residual = dist - target
+        scale = max(1.0, 0.25 * radius)
+        weight = np.where(np.abs(residual) < 2.5 * scale, (1 - (residual / (2.5 * scale)) ** 2) ** 2, 0.0)
+        if weight.sum() < 4:
+            break
+        # Gauss-Newton on sum w (|p - c| - r)^2 with respect to c.
+        jac = -d / dist[:, None]
+        a = (jac * weight[:, None]).T @ jac
+        g = (jac * weight[:, None]).T @ residual
+        try:
+            step = -np.linalg.solve(a + 1e-6 * np.eye(2), g)
+        except np.linalg.LinAlgError:
+            break
+        c = c + step
+        if np.linalg.norm(step) < 0.01:
+            break
+    return float(c[0]), float(c[1])
+
+
+class BallDetector:
+    """Candidates for the ball in a region of a frame, with centres and quality measures."""
+
+    def __init__(self, model: ColourModel):
+        self.model = model
+
+    def candidates(self, bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Callable[[float, float], float],
+                   min_radius: float, region_mask: Optional[np.ndarray] = None
+                   ) -> tuple[list[Candidate], np.ndarray, np.ndarray]:
+        """Candidates inside roi = (x0, y0, x1, y1); radius_at(u, v) is the expected ball radius in pixels
+        at a full-frame pixel. Also returns the roi's Lab image and colour mask."""
+        x0, y0, x1, y1 = roi
+        lab = cv2.cvtColor(bgr[y0:y1, x0:x1], cv2.COLOR_BGR2Lab)
+        mask = self.model.mask(lab)
+        if region_mask is not None:
+            mask &= region_mask[y0:y1, x0:x1]
+        n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        found: list[Candidate] = []
+        for i in range(1, n):
+            area = stats[i, cv2.CC_STAT_AREA]
+            if area < max(3.0, 0.2 * math.pi * min_radius**2):
+                continue
+            radius_px = radius_at(centroids[i][0] + x0, centroids[i][1] + y0)
+            expected = math.pi * radius_px**2
+            bw, bh = stats[i, cv2.CC_STAT_WIDTH], stats[i, cv2.CC_STAT_HEIGHT]
+            bx, by = stats[i, cv2.CC_STAT_LEFT], stats[i, cv2.CC_STAT_TOP]
+            pad = int(2 * radius_px) + 2
+            wx0, wy0 = max(0, bx - pad), max(0, by - pad)
+            local = (labels[wy0:by + bh + pad, wx0:bx + bw + pad] == i).astype(np.uint8)
+            u, v = centroids[i][0] - wx0, centroids[i][1] - wy0
+            if area > 1.8 * expected or max(bw, bh) > 3.2 * radius_px:
+                # Merged with something of the same colour (a rod, a line, a hand): the ball is where the
+                # blob is thickest.
+                dist = cv2.distanceTransform(local, cv2.DIST_L2, 3)
+                peak = float(dist.max())
+                if peak < 0.6 * radius_px:
+                    continue
+                py, px = np.unravel_index(int(np.argmax(dist)), dist.shape)
+                u, v = float(px), float(py)
+            u, v, count = _refine_centre(local, float(u), float(v), radius_px)
+            ratio = count / expected
+            if ratio < 0.25:
+                continue
+            if ratio < 0.8:
+                u, v = _fit_known_radius(local, u, v, radius_px)
+            # Roundness from the second moments of the pixels near the centre: a streak or a bar is long.
+            ys, xs = np.nonzero(local[max(0, int(v - 1.5 * radius_px)):int(v + 1.5 * radius_px) + 2,
+                                      max(0, int(u - 1.5 * radius_px)):int(u + 1.5 * radius_px) + 2])
+            roundness = 1.0
+            if len(xs) >= 5:
+                ev = np.linalg.eigvalsh(np.cov(np.stack([xs, ys]).astype(float)))
+                roundness = float(math.sqrt(max(ev[0], 1e-6) / max(ev[1], 1e-6)))
+            u, v = u + wx0, v + wy0
+            score = min(ratio, 1.0) * roundness - 0.5 * max(0.0, ratio - 1.3)
+            found.append(Candidate(u + x0, v + y0, ratio, roundness, score))
+        return found, lab, mask

@@ -1,0 +1,225 @@
+"""From tag detections to a mapping between image pixels and the ball-centre plane of the table.
+
+Tags are located by their centres (the intersection of their diagonals, exact under perspective), so
+a tag's rotation on the table does not matter. With all tags in one plane at height z_t a homography
+maps the image to that plane; when z_t differs from the ball-centre height the camera centre, found
+from the homography and the intrinsics (given, or a focal length estimated from the homography
+itself), moves each point along its viewing ray to the ball-centre plane. Tags at several heights
+give a full projection matrix (DLT) and need no intrinsics at all.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import cv2
+import numpy as np
+
+from .camera import Intrinsics
+from .errors import MarkersError
+from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
+
+MIN_TAGS = 4
+MAX_TAG_RESIDUAL = 0.010  # m; worse than this and the markers file does not describe the table filmed
+
+
+def tag_centre(corners: np.ndarray) -> np.ndarray:
+    """Intersection of a quad's diagonals (the projected centre of a square, unlike the corners' mean)."""
+    p0, p1, p2, p3 = corners.reshape(4, 2).astype(float)
+    d1, d2 = p2 - p0, p3 - p1
+    denom = d1[0] * d2[1] - d1[1] * d2[0]
+    if abs(denom) < 1e-9:
+        return corners.reshape(4, 2).mean(axis=0)
+    s = ((p1[0] - p0[0]) * d2[1] - (p1[1] - p0[1]) * d2[0]) / denom
+    return p0 + s * d1
+
+
+class Lens:
+    """Undistortion of points (not images: the tracker only needs a few points per frame)."""
+
+    def __init__(self, intrinsics: Optional[Intrinsics]):
+        self.intrinsics = intrinsics
+        self.active = intrinsics is not None and bool(np.any(intrinsics.dist_coeffs))
+
+    def undistort(self, pixels: np.ndarray) -> np.ndarray:
+        pixels = np.asarray(pixels, float).reshape(-1, 2)
+        if not self.active:
+            return pixels
+        k = self.intrinsics.camera_matrix
+        out = cv2.undistortPointsIter(pixels.reshape(-1, 1, 2), k, self.intrinsics.dist_coeffs, None, k,
+                                      (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-6))
+        return out.reshape(-1, 2)
+
+    def distort(self, pixels: np.ndarray) -> np.ndarray:
+        pixels = np.asarray(pixels, float).reshape(-1, 2)
+        if not self.active:
+            return pixels
+        k = self.intrinsics.camera_matrix
+        normalised = (pixels - k[:2, 2]) / np.diag(k)[:2]
+        points = np.concatenate([normalised, np.ones((len(pixels), 1))], axis=1)
+        out, _ = cv2.projectPoints(points.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, self.intrinsics.dist_coeffs)
+        return out.reshape(-1, 2)
+
+
+@dataclass
+class PlaneMapping:
+    """Undistorted pixels <-> (x, y) on the ball-centre plane, z = BALL_CENTRE_HEIGHT."""
+
+    image_to_table: np.ndarray  # 3x3
+    table_to_image: np.ndarray  # 3x3
+    residual_m: float  # RMS of the tag centres against the markers file, m
+    tags_used: int
+    camera_height: float  # m above the ball-centre plane (estimated; nan where not needed)
+
+    def to_table(self, pixels: np.ndarray) -> np.ndarray:
+        return cv2.perspectiveTransform(np.asarray(pixels, float).reshape(-1, 1, 2), self.image_to_table).reshape(-1, 2)
+
+    def to_image(self, xy: np.ndarray) -> np.ndarray:
+        return cv2.perspectiveTransform(np.asarray(xy, float).reshape(-1, 1, 2), self.table_to_image).reshape(-1, 2)
+
+    def pixels_per_metre(self, xy: np.ndarray) -> float:
+        """Local scale of the image at a table point (geometric mean of the two axes)."""
+        xy = np.asarray(xy, float).reshape(2)
+        h = 1e-3
+        p = self.to_image(np.array([xy, xy + (h, 0), xy + (0, h)]))
+        jac = np.stack([(p[1] - p[0]) / h, (p[2] - p[0]) / h], axis=1)
+        return math.sqrt(abs(np.linalg.det(jac)))
+
+
+def _focal_from_homography(plane_to_image: np.ndarray, principal: np.ndarray) -> Optional[float]:
+    """Zhang's constraints with square pixels and a known principal point; None when unobservable."""
+    shift = np.array([[1, 0, -principal[0]], [0, 1, -principal[1]], [0, 0, 1.0]])
+    h = shift @ plane_to_image
+    h1, h2 = h[:, 0], h[:, 1]
+    rows = [(h1[0] * h2[0] + h1[1] * h2[1], h1[2] * h2[2]),
+            (h1[0] ** 2 + h1[1] ** 2 - h2[0] ** 2 - h2[1] ** 2, h1[2] ** 2 - h2[2] ** 2)]
+    a = np.array([r[1] for r in rows])  # coefficient of f^2 ... written as a f^2 + b = 0 after scaling
+    b = np.array([r[0] for r in rows])
+    # b / f^2 + a = 0  ->  f^2 = -b / a, least squares in w = 1/f^2: b w = -a
+    denom = float(b @ b)
+    if denom <= 0:
+        return None
+    w = -float(b @ a) / denom
+    if w <= 0:
+        return None
+    f = 1.0 / math.sqrt(w)
+    # A near fronto-parallel view makes the constraints vanish: trust f only if they were well posed.
+    scale = np.linalg.norm(h[:2, :2]) ** 2
+    if np.max(np.abs(a)) * f * f < 1e-3 * scale:
+        return None
+    return f
+
+
+def _camera_centre(plane_to_image: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Camera centre in the plane's coordinates (x, y, height above the plane)."""
+    m = np.linalg.inv(k) @ plane_to_image
+    lam = 1.0 / np.linalg.norm(m[:, 0])
+    if m[2, 2] < 0:
+        lam = -lam  # the plane is in front of the camera
+    r1, r2, t = lam * m[:, 0], lam * m[:, 1], lam * m[:, 2]
+    r3 = np.cross(r1, r2)
+    rotation = np.stack([r1, r2, r3], axis=1)
+    u, _, vt = np.linalg.svd(rotation)
+    rotation = u @ vt
+    centre = -rotation.T @ t
+    if centre[2] < 0:
+        centre[2] = -centre[2]
+    return centre
+
+
+def fit_mapping(
+    detected: dict[int, np.ndarray],
+    layout: MarkerLayout,
+    image_size: tuple[int, int],
+    intrinsics: Optional[Intrinsics] = None,
+    fovy_hint: float = 50.0,
+    ball_height: float = BALL_CENTRE_HEIGHT,
+) -> PlaneMapping:
+    """The pixel <-> ball-plane mapping from tag centres (undistorted pixels), or MarkersError."""
+    common = sorted(set(detected) & set(layout.positions))
+    if len(common) < MIN_TAGS:
+        raise MarkersError(
+            f"{len(common)} of the markers file's tags are in view (ids seen {sorted(detected)}, "
+            f"file has {layout.ids}); at least {MIN_TAGS} are needed"
+        )
+    pixels = np.array([detected[i] for i in common], float)
+    world = np.array([layout.positions[i] for i in common], float)
+    z = world[:, 2]
+    if np.ptp(z) < 1e-3:
+        z_t = float(z.mean())
+        h, _ = cv2.findHomography(pixels, world[:, :2], 0)
+        if h is None:
+            raise MarkersError("the tags seen do not determine a homography (degenerate layout)")
+        fitted = cv2.perspectiveTransform(pixels.reshape(-1, 1, 2), h).reshape(-1, 2)
+        residual = float(np.sqrt(np.mean(np.sum((fitted - world[:, :2]) ** 2, axis=1))))
+        camera_height = math.nan
+        if abs(z_t - ball_height) > 1e-4:
+            plane_to_image = np.linalg.inv(h)
+            if intrinsics is not None:
+                k = intrinsics.camera_matrix
+            else:
+                width, height = image_size
+                principal = np.array([width / 2 - 0.5, height / 2 - 0.5])
+                f = _focal_from_homography(plane_to_image, principal)
+                if f is None:
+                    f = (height / 2) / math.tan(math.radians(fovy_hint) / 2)
+                k = np.array([[f, 0, principal[0]], [0, f, principal[1]], [0, 0, 1.0]])
+            centre = _camera_centre(plane_to_image, k)
+            camera_height = float(centre[2]) - (ball_height - z_t)
+            # Along each ray from the camera: the plane point p_t at z_t maps to the ball plane point
+            # c + s (p_t - c), s = (h_c - dz) / h_c; as a homography acting on plane coordinates:
+            dz = ball_height - z_t
+            s = (centre[2] - dz) / centre[2]
+            shrink = np.array([[s, 0, (1 - s) * centre[0]], [0, s, (1 - s) * centre[1]], [0, 0, 1.0]])
+            h = shrink @ h
+        image_to_table = h
+    else:
+        if len(common) < 6:
+            raise MarkersError(f"tags at several heights need at least 6 in view for a projection fit, {len(common)} seen")
+        projection = _dlt(world, pixels)
+        plane = projection[:, [0, 1, 3]].copy()
+        plane[:, 2] += projection[:, 2] * ball_height
+        image_to_table = np.linalg.inv(plane)
+        reproj = (projection @ np.c_[world, np.ones(len(world))].T).T
+        reproj = reproj[:, :2] / reproj[:, 2:]
+        metres_per_pixel = 1.0 / max(1e-9, np.median(np.linalg.norm(np.diff(pixels, axis=0), axis=1)
+                                                   / np.linalg.norm(np.diff(world[:, :2], axis=0), axis=1)))
+        residual = float(np.sqrt(np.mean(np.sum((reproj - pixels) ** 2, axis=1)))) * metres_per_pixel
+        camera_height = math.nan
+    image_to_table = image_to_table / image_to_table[2, 2]
+    return PlaneMapping(image_to_table, np.linalg.inv(image_to_table), residual, len(common), camera_height)
+
+
+def _dlt(world: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+    """3x4 projection matrix from >= 6 non-coplanar 3D-2D pairs (normalised DLT)."""
+    rows = []
+    for (x, y, z), (u, v) in zip(world, pixels):
+        rows.append([x, y, z, 1, 0, 0, 0, 0, -u * x, -u * y, -u * z, -u])
+        rows.append([0, 0, 0, 0, x, y, z, 1, -v * x, -v * y, -v * z, -v])
+    _, _, vt = np.linalg.svd(np.asarray(rows))
+    return vt[-1].reshape(3, 4)
+
+
+class TagLocator:
+    """Detects the layout's ArUco tags and returns their centres in undistorted pixels."""
+
+    def __init__(self, layout: MarkerLayout, lens: Lens):
+        self.layout = layout
+        self.lens = lens
+        params = cv2.aruco.DetectorParameters()
+        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+        self.detector = cv2.aruco.ArucoDetector(layout.aruco_dictionary(), params)
+
+    def detect(self, gray: np.ndarray) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
+        """(centres by id in undistorted pixels, raw corners by id) of every tag of the dictionary seen."""
+        corners, ids, _ = self.detector.detectMarkers(gray)
+        centres: dict[int, np.ndarray] = {}
+        raw: dict[int, np.ndarray] = {}
+        if ids is None:
+            return centres, raw
+        for quad, tag_id in zip(corners, ids.ravel()):
+            undistorted = self.lens.undistort(quad.reshape(4, 2))
+            centres[int(tag_id)] = tag_centre(undistorted)
+            raw[int(tag_id)] = quad.reshape(4, 2)
+        return centres, raw

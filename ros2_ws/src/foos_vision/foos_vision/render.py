@@ -1,0 +1,171 @@
+"""The synthetic camera: renders a simulated (or recorded) rollout to an mp4 plus its ground truth.
+
+Frame k is exposed around t_k = k / fps; its ground truth is the ball centre at t_k. With motion blur,
+`subframes` renders spread over `exposure` of the frame interval, centred on t_k, are averaged.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterator, Optional
+
+import cv2
+import mujoco
+import numpy as np
+
+from .camera import CameraConfig
+from .markers import MarkerLayout
+from .scene import BALL_COLOURS, CAMERA_NAME, build_scene_model, hide_cover, set_rod_finish, set_ball_colour, set_lighting
+
+HIDDEN_Z = -2.0  # where a ball "picked up" by a hand is put for rendering: below the room floor
+
+
+@dataclass
+class RenderOptions:
+    camera: CameraConfig
+    ball_colour: tuple[float, float, float] = BALL_COLOURS["white"]
+    subframes: int = 1  # > 1: motion blur by sub-frame averaging
+    exposure: float = 0.5  # fraction of the frame interval the shutter is open (motion blur only)
+    noise: float = 1.5  # sensor noise, std in 8-bit levels
+    lighting: float = 1.0  # scale of the scene lights
+    visibility: bool = False  # also measure the visible fraction of the ball (a segmentation render per frame)
+    seed: int = 0
+
+
+@dataclass
+class FrameTruth:
+    t: float
+    position: np.ndarray  # (3,), NaN when the ball is out of sight on purpose (picked up)
+    velocity: np.ndarray
+    visible: float  # fraction of the ball's disc that is visible; NaN when not measured
+
+
+class DistortionMap:
+    """Warps an ideal pinhole render into the image a lens with OpenCV distortion coefficients makes."""
+
+    def __init__(self, camera: CameraConfig):
+        k, d = camera.camera_matrix(), camera.dist_coeffs()
+        u, v = np.meshgrid(np.arange(camera.width, dtype=np.float32), np.arange(camera.height, dtype=np.float32))
+        distorted = np.stack([u.ravel(), v.ravel()], axis=1).reshape(-1, 1, 2)
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-4)
+        ideal = cv2.undistortPointsIter(distorted, k, d, None, k, criteria).reshape(camera.height, camera.width, 2)
+        self.map_x, self.map_y = cv2.convertMaps(ideal[..., 0].astype(np.float32), ideal[..., 1].astype(np.float32),
+                                                 cv2.CV_16SC2)
+
+    def __call__(self, image: np.ndarray) -> np.ndarray:
+        return cv2.remap(image, self.map_x, self.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+
+
+class SceneRenderer:
+    """Renders the table state held in a qpos vector of the foos_sim model (same joints, same order)."""
+
+    def __init__(self, base_mjcf: str, layout: MarkerLayout, options: RenderOptions):
+        self.options = options
+        self.camera = options.camera
+        self.model = build_scene_model(base_mjcf, layout, options.camera)
+        hide_cover(self.model)
+        set_rod_finish(self.model)
+        set_ball_colour(self.model, options.ball_colour)
+        set_lighting(self.model, options.lighting)
+        self.data = mujoco.MjData(self.model)
+        self.renderer = mujoco.Renderer(self.model, options.camera.height, options.camera.width)
+        self.segmenter: Optional[mujoco.Renderer] = None
+        if options.visibility:
+            self.segmenter = mujoco.Renderer(self.model, options.camera.height, options.camera.width)
+            self.segmenter.enable_segmentation_rendering()
+        self.distortion = DistortionMap(options.camera) if any(options.camera.distortion) else None
+        ball = self.model.joint("ball")
+        self.ball_qpos = slice(ball.qposadr[0], ball.qposadr[0] + 3)
+        self.ball_geom = self.model.geom("ball").id
+        self.ball_radius = float(self.model.geom_size[self.ball_geom][0])
+        self.rng = np.random.default_rng(options.seed)
+
+    def _pose(self, qpos: np.ndarray, hidden: bool) -> None:
+        self.data.qpos[:] = qpos
+        if hidden:
+            self.data.qpos[self.ball_qpos] = (0.0, 0.0, HIDDEN_Z)
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)  # camera and light poses are not part of kinematics
+
+    def render_rgb(self, qpos: np.ndarray, hidden: bool = False) -> np.ndarray:
+        self._pose(qpos, hidden)
+        self.renderer.update_scene(self.data, CAMERA_NAME)
+        return self.renderer.render()
+
+    def visible_fraction(self, qpos: np.ndarray, hidden: bool = False) -> float:
+        if self.segmenter is None:
+            return math.nan
+        if hidden:
+            return 0.0
+        self._pose(qpos, False)
+        self.segmenter.update_scene(self.data, CAMERA_NAME)
+        seg = self.segmenter.render()
+        seen = np.count_nonzero((seg[..., 0] == self.ball_geom) & (seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM)))
+        centre = self.data.qpos[self.ball_qpos].copy()
+        depth = float(self.camera.depth(centre)[0])
+        if depth <= self.ball_radius:
+            return 0.0
+        focal = self.camera.camera_matrix()[0, 0]
+        expected = math.pi * (focal * self.ball_radius / depth) ** 2
+        return float(min(1.0, seen / expected))
+
+    def finish(self, frames: list[np.ndarray]) -> np.ndarray:
+        """Average the sub-frames, add the lens and the sensor noise; returns BGR uint8 for the writer."""
+        image = frames[0].astype(np.float32) if len(frames) == 1 else np.mean(np.stack(frames), axis=0, dtype=np.float32)
+        if self.distortion is not None:
+            image = self.distortion(image)
+        if self.options.noise > 0:
+            image += self.rng.normal(0.0, self.options.noise, image.shape).astype(np.float32)
+        return cv2.cvtColor(np.clip(image + 0.5, 0, 255).astype(np.uint8), cv2.COLOR_RGB2BGR)
+
+    def close(self) -> None:
+        self.renderer.close()
+        if self.segmenter is not None:
+            self.segmenter.close()
+
+
+StateAt = Callable[[float], tuple[np.ndarray, np.ndarray, bool]]
+"""Advance a rollout to time t (never backwards) and return (qpos, ball velocity, ball hidden)."""
+
+
+def frame_times(k: int, fps: float, subframes: int, exposure: float) -> list[float]:
+    t = k / fps
+    if subframes <= 1:
+        return [t]
+    return [t + ((j + 0.5) / subframes - 0.5) * exposure / fps for j in range(subframes)]
+
+
+def render_frames(renderer: SceneRenderer, state_at: StateAt, n_frames: int) -> Iterator[tuple[np.ndarray, FrameTruth]]:
+    """Yields (BGR frame, its truth) for frames 0..n_frames-1."""
+    o = renderer.options
+    fps = renderer.camera.fps
+    for k in range(n_frames):
+        t_k = k / fps
+        subs = frame_times(k, fps, o.subframes, o.exposure)
+        images: list[np.ndarray] = []
+        truth: Optional[FrameTruth] = None
+        for t in sorted(subs + [t_k]) if o.subframes > 1 else [t_k]:
+            qpos, velocity, hidden = state_at(max(t, 0.0))
+            if t == t_k and truth is None:
+                position = qpos[renderer.ball_qpos].copy()
+                if hidden:
+                    position[:] = math.nan
+                truth = FrameTruth(t_k, position, velocity.copy() if not hidden else np.full(3, math.nan),
+                                   renderer.visible_fraction(qpos, hidden))
+                if o.subframes > 1:
+                    continue
+            images.append(renderer.render_rgb(qpos, hidden))
+        yield renderer.finish(images), truth
+
+
+def write_truth(path: Path, truths: list[FrameTruth]) -> None:
+    rows = np.array([[i, f.t, *f.position, *f.velocity, f.visible] for i, f in enumerate(truths)], float)
+    header = "frame,t,x,y,z,vx,vy,vz,visible"
+    fmt = ["%d", "%.6f"] + ["%.6f"] * 6 + ["%.4f"]
+    np.savetxt(path, rows, delimiter=",", header=header, comments="", fmt=fmt)
+
+
+def read_truth(path: str | Path) -> dict[str, np.ndarray]:
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    return {name: np.asarray(data[name], float) for name in data.dtype.names}

@@ -1,0 +1,172 @@
+"""render_video: film a simulated or recorded rollout with a synthetic camera, with its ground truth."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import cv2
+import yaml
+
+from .camera import load_camera
+from .cli_util import run_cli
+from .errors import VisionError
+from .markers import DEFAULT_MARKERS_FILE, load_markers
+from .scene import BALL_COLOURS
+
+DESCRIPTION = """\
+Render a video of the simulated table (or of a bag of ball and rod states) as a camera would film it,
+and write the ground truth next to it:
+  OUT.mp4            the video (mp4v), frame k exposed around t = k / fps
+  OUT.truth.csv      frame,t,x,y,z,vx,vy,vz,visible: the ball centre in the table frame at each frame
+                     time (NaN while the ball is picked up); visible = fraction of the ball in view
+                     (with --visibility, else NaN)
+  OUT.camera.yaml    the camera used (pose, fov, size, fps, distortion) and its OpenCV intrinsics
+  OUT.markers.yaml   the ArUco tag layout in the video, ready for `track_video --markers`
+
+Examples:
+  render_video out/roll.mp4 --scenario rolls --duration 20 --params-file tilted.yaml
+  render_video out/play.mp4 --camera oblique --fps 60 --ball-color yellow --blur 4 --distortion -0.2,0.05
+  render_video out/replay.mp4 --bag recorded_bag --camera overhead
+"""
+
+
+def parse_colour(text: str) -> tuple[float, float, float]:
+    if text in BALL_COLOURS:
+        return BALL_COLOURS[text]
+    try:
+        rgb = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        rgb = ()
+    if len(rgb) != 3 or not all(0 <= v <= 1 for v in rgb):
+        raise argparse.ArgumentTypeError(f"`{text}` is not one of {sorted(BALL_COLOURS)} nor R,G,B in [0, 1]")
+    return rgb
+
+
+def parse_floats(text: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"`{text}` is not a comma-separated list of numbers") from None
+    if not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError("values must be finite")
+    return values
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="render_video", description=DESCRIPTION,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("out", help="output video path (.mp4); the truth, camera and markers files go next to it")
+    src = p.add_argument_group("what is filmed")
+    src.add_argument("--scenario", choices=("play", "rolls"), default="play",
+                     help="play: rods moving and kicking, random rolls 0.3-3 m/s; rolls: rods lifted, "
+                          "free rolls (for calibration). Default play")
+    src.add_argument("--bag", help="replay /ball/state and /joint_states from this bag instead of simulating")
+    src.add_argument("--params-file", help="table parameter file for the simulation (default: the nominal table)")
+    src.add_argument("--duration", type=float, default=5.0, help="seconds of video (default 5; a bag: its length)")
+    src.add_argument("--hide-every", type=float, default=0.0,
+                     help="take the ball out of sight about every this many seconds, for --hide-for s (default never)")
+    src.add_argument("--hide-for", type=float, default=0.4)
+    src.add_argument("--seed", type=int, default=0)
+    cam = p.add_argument_group("camera")
+    cam.add_argument("--camera", default="overhead", help="overhead, oblique, or a camera YAML (default overhead)")
+    cam.add_argument("--width", type=int)
+    cam.add_argument("--height", type=int)
+    cam.add_argument("--fps", type=float)
+    cam.add_argument("--fovy", type=float, help="vertical field of view, degrees")
+    cam.add_argument("--distortion", type=parse_floats, help="OpenCV k1,k2[,p1,p2,k3] radial/tangential lens distortion")
+    cam.add_argument("--markers", default=str(DEFAULT_MARKERS_FILE), help="tag layout to place (default: the shipped one)")
+    look = p.add_argument_group("realism")
+    look.add_argument("--ball-color", type=parse_colour, default=BALL_COLOURS["white"],
+                      help=f"{', '.join(BALL_COLOURS)} or R,G,B in [0, 1] (default white)")
+    look.add_argument("--blur", type=int, default=1, help="sub-frames averaged per frame for motion blur (default 1 = none)")
+    look.add_argument("--exposure", type=float, default=0.5, help="shutter open fraction of the frame interval (default 0.5)")
+    look.add_argument("--noise", type=float, default=1.5, help="sensor noise std, 8-bit levels (default 1.5)")
+    look.add_argument("--lighting", type=float, default=1.0, help="light intensity scale (default 1)")
+    look.add_argument("--visibility", action="store_true", help="measure the visible fraction of the ball per frame (2x slower)")
+    p.add_argument("--overwrite", action="store_true", help="replace existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def render_video(args: argparse.Namespace) -> int:
+    import numpy as np
+    from tqdm import tqdm
+
+    from foos_sim.model_builder import build_mjcf
+    from foos_sim.simulation import TableSimulation
+    from foos_sim.table_params import load_params
+
+    from .render import RenderOptions, SceneRenderer, render_frames, write_truth
+    from .scenarios import BagRollout, SimRollout
+
+    out = Path(args.out)
+    if out.suffix.lower() != ".mp4":
+        raise VisionError(f"{out}: the output must be an .mp4 file")
+    stem = out.with_suffix("")
+    outputs = [out, Path(f"{stem}.truth.csv"), Path(f"{stem}.camera.yaml"), Path(f"{stem}.markers.yaml")]
+    existing = [str(o) for o in outputs if o.exists()]
+    if existing and not args.overwrite:
+        raise VisionError(f"{existing[0]} exists (use --overwrite to replace it)")
+    camera = load_camera(args.camera).with_(width=args.width, height=args.height, fps=args.fps, fovy=args.fovy,
+                                            distortion=args.distortion)
+    if camera.width % 2 or camera.height % 2:
+        raise VisionError("width and height must be even (mp4v)")
+    for name in ("duration", "exposure", "lighting"):
+        if not (getattr(args, name) > 0 and math.isfinite(getattr(args, name))):
+            raise VisionError(f"--{name} must be a positive number")
+    if args.blur < 1 or args.noise < 0 or args.hide_every < 0 or args.hide_for <= 0:
+        raise VisionError("--blur >= 1, --noise >= 0, --hide-every >= 0 and --hide-for > 0 are required")
+    layout = load_markers(args.markers)
+    params = load_params(args.params_file)
+    sim = TableSimulation(params=params)
+    if args.bag:
+        rollout = BagRollout(sim, args.bag)
+        duration = min(args.duration, rollout.duration) if "--duration" in sys.argv else rollout.duration
+    else:
+        rollout = SimRollout(sim, args.scenario, seed=args.seed, hide_every=args.hide_every, hide_for=args.hide_for)
+        duration = args.duration
+    n_frames = int(math.floor(duration * camera.fps)) + 1
+    options = RenderOptions(camera=camera, ball_colour=args.ball_color, subframes=args.blur, exposure=args.exposure,
+                            noise=args.noise, lighting=args.lighting, visibility=args.visibility, seed=args.seed)
+    renderer = SceneRenderer(build_mjcf(params=params), layout, options)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), camera.fps, (camera.width, camera.height))
+    if not writer.isOpened():
+        raise VisionError(f"{out}: OpenCV cannot write an mp4v video here")
+    truths = []
+    try:
+        for frame, truth in tqdm(render_frames(renderer, rollout.state_at, n_frames), total=n_frames,
+                                 desc="render_video", unit="frame", disable=args.quiet):
+            writer.write(frame)
+            truths.append(truth)
+    finally:
+        writer.release()
+        renderer.close()
+        # Whatever was rendered keeps its truth, even after Ctrl-C.
+        if truths:
+            write_truth(outputs[1], truths)
+    k = camera.camera_matrix()
+    camera_tree = {key: (list(v) if isinstance(v, tuple) else v) for key, v in camera.__dict__.items()}
+    camera_tree["intrinsics"] = {"image_width": camera.width, "image_height": camera.height,
+                                 "camera_matrix": k.round(6).tolist(),
+                                 "dist_coeffs": [float(v) for v in camera.dist_coeffs()]}
+    outputs[2].write_text(yaml.safe_dump(camera_tree, sort_keys=False))
+    outputs[3].write_text(yaml.safe_dump({
+        "dictionary": layout.dictionary, "size": layout.size,
+        "markers": {int(i): [float(v) for v in p] for i, p in sorted(layout.positions.items())},
+    }, sort_keys=False))
+    visible = np.array([t.visible for t in truths])
+    print(f"render_video: {len(truths)} frames {camera.width}x{camera.height} @ {camera.fps:g} fps -> {out}"
+          + (f" (ball at least half visible in {np.mean(visible >= 0.5):.0%} of frames)" if args.visibility else ""))
+    return 0
+
+
+def main(argv=None) -> None:
+    args = build_parser().parse_args(argv)
+    run_cli("render_video", lambda: render_video(args))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,251 @@
+"""The tracker: frames in, ball positions in the table frame out (ROS-free; the node and CLI wrap it)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Optional
+
+import cv2
+import numpy as np
+
+from .camera import Intrinsics
+from .detector import BALL_COLOR_NAMES, BallDetector, Candidate, ColourModel, colour_model, learn_colour
+from .errors import MarkersError
+from .geometry import MAX_TAG_RESIDUAL, Lens, PlaneMapping, TagLocator, fit_mapping
+from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
+from .velocity import ConstantVelocityKalman, KalmanState
+
+BALL_RADIUS = 0.0175
+# Where the ball can be: the playing field plus the goal pockets, with a ball radius of margin.
+FIELD_HALF_X, FIELD_HALF_Y, GOAL_HALF_X, GOAL_DEPTH = 0.34, 0.60, 0.10, 0.10
+
+
+@dataclass
+class TrackerConfig:
+    ball_color: str = "auto"
+    intrinsics: Optional[Intrinsics] = None
+    tag_interval: int = 30  # frames between tag refits once the tags are found (the camera is mounted)
+    fovy_hint: float = 50.0  # used only for parallax with tags off the ball plane and no intrinsics
+    auto_frames: int = 12  # frames used to pick the colour in auto mode
+    learn_after: int = 10  # confident detections before the colour model is narrowed to the ball seen
+    measurement_std: float = 0.0015
+
+
+@dataclass
+class Detection:
+    t: float
+    x: float
+    y: float
+    z: float
+    u: float  # pixel centre in the (distorted) image
+    v: float
+    area_ratio: float
+
+
+@dataclass
+class TrackerStats:
+    frames: int = 0
+    frames_with_mapping: int = 0
+    detections: int = 0
+    tag_fits: int = 0
+    tags_seen: set = field(default_factory=set)
+    rejected_fits: int = 0
+
+
+class BallTracker:
+    def __init__(self, layout: MarkerLayout, config: TrackerConfig | None = None):
+        self.layout = layout
+        self.config = config or TrackerConfig()
+        if self.config.ball_color != "auto" and self.config.ball_color not in BALL_COLOR_NAMES:
+            raise ValueError(f"unknown ball colour `{self.config.ball_color}` (auto, {', '.join(BALL_COLOR_NAMES)})")
+        self.lens = Lens(self.config.intrinsics)
+        self.tags = TagLocator(layout, self.lens)
+        self.mapping: Optional[PlaneMapping] = None
+        self.last_tag_corners: dict[int, np.ndarray] = {}
+        self.last_fit_error: Optional[str] = None
+        self.kalman = ConstantVelocityKalman(measurement_std=self.config.measurement_std)
+        self.stats = TrackerStats()
+        self._frame_size: Optional[tuple[int, int]] = None
+        self._region: Optional[np.ndarray] = None
+        self._roi = (0, 0, 0, 0)
+        self._min_radius = 2.0
+        self._auto_seen: dict[str, list] = {name: [] for name in BALL_COLOR_NAMES}
+        self._auto_done = self.config.ball_color != "auto"
+        start = "white" if self.config.ball_color == "auto" else self.config.ball_color
+        self.detector = BallDetector(colour_model(start))
+        self._learn_pixels: list[np.ndarray] = []
+        self._learned = False
+        self._last_t: Optional[float] = None
+
+    # --- tags -------------------------------------------------------------------------------------
+    def _refit(self, bgr: np.ndarray) -> None:
+        gray = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
+        centres, corners = self.tags.detect(gray)
+        self.stats.tags_seen |= set(centres)
+        if corners:
+            self.last_tag_corners = corners
+        try:
+            mapping = fit_mapping(centres, self.layout, (bgr.shape[1], bgr.shape[0]), self.config.intrinsics,
+                                  self.config.fovy_hint)
+        except MarkersError as error:
+            self.last_fit_error = str(error)
+            return
+        if mapping.residual_m > MAX_TAG_RESIDUAL:
+            self.stats.rejected_fits += 1
+            self.last_fit_error = (f"the tags seen are {mapping.residual_m * 1000:.0f} mm (RMS) away from where the "
+                                   f"markers file puts them: the file does not describe this table")
+            return
+        self.stats.tag_fits += 1
+        self.last_fit_error = None
+        if self.mapping is None or not np.allclose(mapping.image_to_table, self.mapping.image_to_table, atol=1e-9):
+            self.mapping = mapping
+            self._update_region(bgr.shape[1], bgr.shape[0])
+
+    def _update_region(self, width: int, height: int) -> None:
+        m = BALL_RADIUS
+        x, y, gx, gy = FIELD_HALF_X + m, FIELD_HALF_Y + m, GOAL_HALF_X + m, FIELD_HALF_Y + GOAL_DEPTH
+        outline = [(-x, -FIELD_HALF_Y), (-gx, -FIELD_HALF_Y), (-gx, -gy), (gx, -gy), (gx, -FIELD_HALF_Y), (x, -FIELD_HALF_Y),
+                   (x, FIELD_HALF_Y), (gx, FIELD_HALF_Y), (gx, gy), (-gx, gy), (-gx, FIELD_HALF_Y), (-x, FIELD_HALF_Y)]
+        outline = [(-x, -y)] + outline[1:5] + [(x, -y), (x, y)] + outline[7:11] + [(-x, y)]
+        # Densify the edges so that lens distortion bends them as it bends the image.
+        dense = []
+        for a, b in zip(outline, outline[1:] + outline[:1]):
+            for s in np.linspace(0, 1, 12, endpoint=False):
+                dense.append((a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])))
+        pixels = self.lens.distort(self.mapping.to_image(np.array(dense)))
+        region = np.zeros((height, width), np.uint8)
+        cv2.fillPoly(region, [np.round(pixels).astype(np.int32)], 255)
+        self._region = region
+        ys, xs = np.nonzero(region)
+        if len(xs) == 0:
+            raise MarkersError("the field lies outside the image according to the tags: check the markers file")
+        self._roi = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
+        radii = [self._radius_at_table(p) for p in ((-0.34, -0.6), (0.34, -0.6), (0.34, 0.6), (-0.34, 0.6), (0, 0))]
+        self._min_radius = max(1.5, min(radii))
+
+    # --- geometry helpers -------------------------------------------------------------------------
+    def _radius_at_table(self, xy) -> float:
+        return BALL_RADIUS * self.mapping.pixels_per_metre(np.asarray(xy, float))
+
+    def _radius_at_pixel(self, u: float, v: float) -> float:
+        xy = self.mapping.to_table(self.lens.undistort(np.array([[u, v]])))[0]
+        return self._radius_at_table(xy)
+
+    def pixel_to_table(self, u: float, v: float) -> np.ndarray:
+        return self.mapping.to_table(self.lens.undistort(np.array([[u, v]])))[0]
+
+    def table_to_pixel(self, xy) -> np.ndarray:
+        return self.lens.distort(self.mapping.to_image(np.asarray(xy, float).reshape(1, 2)))[0]
+
+    # --- per frame --------------------------------------------------------------------------------
+    def process(self, bgr: np.ndarray, t: float) -> Optional[Detection]:
+        """The ball in this frame, or None (no ball is ever guessed)."""
+        if bgr is None or bgr.ndim != 3 or bgr.shape[2] != 3:
+            raise ValueError("the tracker needs 3-channel BGR frames")
+        if self._last_t is not None and t < self._last_t:
+            raise ValueError(f"frame times go backwards ({t:.6f} s after {self._last_t:.6f} s)")
+        self._last_t = t
+        size = (bgr.shape[1], bgr.shape[0])
+        if self._frame_size not in (None, size):
+            self.mapping = None  # a different camera mode: the old fit means nothing
+        self._frame_size = size
+        self.stats.frames += 1
+        if self.mapping is None or self.stats.frames % self.config.tag_interval == 0:
+            self._refit(bgr)
+        if self.mapping is None:
+            return None
+        self.stats.frames_with_mapping += 1
+        if not self._auto_done:
+            self._vote_colour(bgr)
+        chosen, lab_roi, roi = self._find(bgr, t)
+        if chosen is None:
+            return None
+        xy = self.pixel_to_table(chosen.u, chosen.v)
+        self.kalman.update(t, xy)
+        self.stats.detections += 1
+        if not self._learned and self._auto_done and self._confident(chosen):
+            self._collect_colour(lab_roi, roi, chosen)
+        return Detection(t, float(xy[0]), float(xy[1]), BALL_CENTRE_HEIGHT, chosen.u, chosen.v, chosen.area_ratio)
+
+    def _confident(self, c: Candidate) -> bool:
+        return 0.6 <= c.area_ratio <= 1.5 and c.roundness >= 0.65
+
+    def _find(self, bgr: np.ndarray, t: float):
+        predicted = self.kalman.predict(t)
+        if predicted is not None:
+            found = self._search_near(bgr, predicted)
+            if found[0] is not None:
+                return found
+        candidates, lab, _ = self.detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius,
+                                                      self._region)
+        good = [c for c in candidates if self._confident(c)]
+        if predicted is not None:
+            # Still tracking but outside the window (a hard hit): accept a confident candidate only.
+            pass
+        if not good:
+            return None, lab, self._roi
+        return max(good, key=lambda c: c.score), lab, self._roi
+
+    def _search_near(self, bgr: np.ndarray, state: KalmanState):
+        ppm = self.mapping.pixels_per_metre(state.x[:2])
+        radius = BALL_RADIUS * ppm
+        sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
+        gate = 4.0 * sigma + 1.5 * radius + 2.0
+        centre = self.table_to_pixel(state.x[:2])
+        half = gate + 2 * radius + 2
+        h, w = bgr.shape[:2]
+        x0, y0 = max(0, int(centre[0] - half)), max(0, int(centre[1] - half))
+        x1, y1 = min(w, int(centre[0] + half) + 1), min(h, int(centre[1] + half) + 1)
+        if x1 - x0 < 3 or y1 - y0 < 3:
+            return None, None, None
+        roi = (x0, y0, x1, y1)
+        candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._region)
+        near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate and c.score > 0.2]
+        if not near:
+            return None, lab, roi
+        best = min(near, key=lambda c: math.hypot(c.u - centre[0], c.v - centre[1]) / gate - c.score)
+        return best, lab, roi
+
+    # --- colour -------------------------------------------------------------------------------------
+    def _vote_colour(self, bgr: np.ndarray) -> None:
+        """Auto colour: which prototype finds one round, ball-sized blob that moves, most often."""
+        for name in BALL_COLOR_NAMES:
+            detector = BallDetector(colour_model(name))
+            candidates, _, _ = detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius, self._region)
+            self._auto_seen[name].append([(c.u, c.v) for c in candidates if self._confident(c)])
+        votes = {name: self._colour_votes(frames) for name, frames in self._auto_seen.items()}
+        best = max(BALL_COLOR_NAMES, key=lambda n: votes[n])
+        if votes[best] > 0:
+            self.detector = BallDetector(colour_model(best))
+        if self.stats.frames_with_mapping >= self.config.auto_frames and votes[best] > 0:
+            self._auto_done = True
+            self.kalman.reset()
+
+    @staticmethod
+    def _colour_votes(frames: list[list[tuple[float, float]]]) -> float:
+        """Frames with exactly one candidate that is not a fixture (a blob at the same pixel in most frames)."""
+        def static(p, own):
+            hits = sum(any(math.hypot(p[0] - q[0], p[1] - q[1]) < 2.0 for q in other)
+                       for j, other in enumerate(frames) if j != own)
+            return hits >= 0.5 * max(1, len(frames) - 1)
+
+        moving_votes = sum(1 for i, f in enumerate(frames) if len([p for p in f if not static(p, i)]) == 1)
+        single = sum(1 for f in frames if len(f) == 1)
+        return moving_votes + 1e-3 * single  # a ball at rest throughout wins only when nothing moves
+
+    @property
+    def colour(self) -> ColourModel:
+        return self.detector.model
+
+    def _collect_colour(self, lab: np.ndarray, roi, c: Candidate) -> None:
+        x0, y0 = roi[0], roi[1]
+        r = 0.6 * self._radius_at_pixel(c.u, c.v)
+        u, v = c.u - x0, c.v - y0
+        ys, xs = np.mgrid[0:lab.shape[0], 0:lab.shape[1]]
+        core = (xs - u) ** 2 + (ys - v) ** 2 <= r * r
+        pixels = lab[core]
+        if len(pixels):
+            self._learn_pixels.append(pixels)
+        if len(self._learn_pixels) >= self.config.learn_after:
+            self.detector = BallDetector(learn_colour(self.detector.model, np.concatenate(self._learn_pixels)))
+            self._learned = True
