@@ -749,7 +749,6 @@ def messages(
                     f"{path} has no topic {', '.join(missing)} (it has: {', '.join(sorted(have)) or 'no topics'})"
                 )
             conns = [c for c in conns if c.topic in wanted]
-        store = typestore()
         for conn in conns:
             if not raw:
                 _ensure_type(conn.msgtype, conn.msgdef.data or None)
@@ -758,7 +757,7 @@ def messages(
                 if raw:
                     yield conn.topic, timestamp, data
                 else:
-                    yield conn.topic, timestamp, store.deserialize_cdr(data, conn.msgtype)
+                    yield conn.topic, timestamp, deserialize(data, conn.msgtype)
         except BagError:
             raise
         except Exception as exc:
@@ -766,6 +765,20 @@ def messages(
             raise BagError(f"{path} is corrupt or truncated while reading messages ({reason})") from None
     finally:
         reader.close()
+
+
+def deserialize(cdr: bytes | memoryview, msgtype: str) -> Any:
+    """CDR bytes -> rosbags message object.
+
+    Unlike rosbags' own check, trailing bytes are accepted: Fast DDS (and so real rosbag2 recordings)
+    pads serialized messages past their end, e.g. a JointState with an empty effort carries 4 extra bytes.
+    """
+    if len(cdr) < 4 or bytes(cdr[:2]) not in (b"\x00\x00", b"\x00\x01"):
+        raise ValueError(f"not a CDR {msgtype} message (bad encapsulation header)")
+    msgdef = typestore().get_msgdef(msgtype)
+    func = msgdef.deserialize_cdr_le if cdr[1] else msgdef.deserialize_cdr_be
+    message, _ = func(memoryview(cdr)[4:], 0, msgdef.cls, typestore())
+    return message
 
 
 def _stamp_s(header) -> float:

@@ -86,7 +86,7 @@ class Recorder(Node):
             flush_interval=config.flush_interval,
         )
         self.received = 0
-        self._subscriptions: dict[str, object] = {}
+        self._subs_by_topic: dict[str, object] = {}
         self._skipped: set[str] = set()
         self._clock = self.get_clock()
         self.discover()
@@ -134,7 +134,7 @@ class Recorder(Node):
 
     def discover(self) -> None:
         for topic, types in self.get_topic_names_and_types():
-            if topic in self._subscriptions or topic in self._skipped or not self.selector.wants(topic):
+            if topic in self._subs_by_topic or topic in self._skipped or not self.selector.wants(topic):
                 continue
             publishers = self.get_publishers_info_by_topic(topic)
             if not publishers:
@@ -159,7 +159,7 @@ class Recorder(Node):
             self._skipped.add(topic)
             return
         qos = subscription_qos([p.qos_profile for p in publishers])
-        self._subscriptions[topic] = self.create_subscription(cls, topic, partial(self._store, topic), qos, raw=True)
+        self._subs_by_topic[topic] = self.create_subscription(cls, topic, partial(self._store, topic), qos, raw=True)
         self.get_logger().info(f"Subscribed to topic '{topic}' ({msgtype})")
 
     def _store(self, topic: str, cdr: bytes) -> None:
@@ -211,11 +211,10 @@ def run(config: RecordConfig | None, args: list[str] | None = None) -> int:
         return 0
     except BagError as exc:
         print(f"record: {exc}", file=sys.stderr)
-        if recorder is not None:
-            recorder.writer.close()
         return 1
     finally:
         if recorder is not None:
+            recorder.writer.close()  # no-op after finish(); on any error it keeps what was recorded
             recorder.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
