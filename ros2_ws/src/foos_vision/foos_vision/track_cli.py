@@ -1,0 +1,157 @@
+"""track_video: a video file to a bag of ball detections in the table frame (the offline tracker)."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .cli_util import run_cli
+from .errors import MarkersError, VisionError
+
+DESCRIPTION = """\
+Track the ball in a video of the table and write a rosbag2 bag (MCAP) with
+  /ball/detection  geometry_msgs/PointStamped, frame `table`, stamp = frame time (index / fps + --start-time)
+  /ball/state      nav_msgs/Odometry, position and constant-velocity Kalman velocity
+A frame where the ball is not found gives no detection. The tags of the markers file give the
+homography to the table (refitted every --tag-interval frames; the last good fit is kept while tags
+are hidden). Optional outputs: the paper's CSVs and an annotated video or PNG.
+
+Examples:
+  track_video game.mp4 --markers table_markers.yaml --out game_bag
+  track_video game.mp4 --markers m.yaml --out bag --ball-color yellow --intrinsics cam.yaml \\
+      --csv-pixels px.csv --csv-metres m.csv --annotate seen.mp4
+Exit status: 0 done, 1 ran but the result is incomplete (video cut short), 2 bad input (no bag written).
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from .detector import BALL_COLOR_NAMES
+
+    p = argparse.ArgumentParser(prog="track_video", description=DESCRIPTION,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("video", help="video file (anything OpenCV/FFmpeg decodes: mp4, avi, mkv, ...)")
+    p.add_argument("--markers", required=True, help="markers YAML: ArUco dictionary, tag size, tag centres [x, y, z] in m")
+    p.add_argument("--out", required=True, help="bag directory to create (must not exist)")
+    p.add_argument("--ball-color", default="auto", choices=("auto",) + BALL_COLOR_NAMES,
+                   help="ball colour; auto picks it from the first frames (default auto)")
+    p.add_argument("--start-time", type=float, default=0.0, help="seconds added to every frame time (default 0)")
+    p.add_argument("--fps", type=float, help="frame rate, when the container does not tell it (or tells it wrong)")
+    p.add_argument("--intrinsics", help="camera intrinsics YAML from calibrate_camera (undistorts tags and ball)")
+    p.add_argument("--tag-interval", type=int, default=30, help="frames between tag refits (default 30)")
+    p.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
+    p.add_argument("--csv-pixels", help="also write t,u,v (pixels) of every detection")
+    p.add_argument("--csv-metres", help="also write t,x,y,vx,vy (m, m/s; central differences, as in the paper)")
+    p.add_argument("--annotate", help="also write what the tracker saw: a video (.mp4) or the last frame with the track (.png)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def track_video(args: argparse.Namespace) -> int:
+    import cv2
+    from tqdm import tqdm
+
+    from foos_bag.bag_io import BagWriter, write_ball_detections, write_ball_states
+
+    from .annotate import Annotator
+    from .camera import load_intrinsics
+    from .markers import load_markers
+    from .tracker import BallTracker, TrackerConfig
+    from .velocity import central_differences
+    from .video_io import VideoReader
+
+    if not math.isfinite(args.start_time):
+        raise VisionError("--start-time must be a finite number of seconds")
+    if args.tag_interval < 1:
+        raise VisionError("--tag-interval must be >= 1")
+    BagWriter.check_new_path(args.out)
+    for extra in (args.csv_pixels, args.csv_metres, args.annotate):
+        if extra and Path(extra).exists():
+            raise VisionError(f"{extra} exists; choose a new output path")
+    if args.annotate and Path(args.annotate).suffix.lower() not in (".mp4", ".png"):
+        raise VisionError("--annotate takes an .mp4 or .png path")
+    layout = load_markers(args.markers)
+    intrinsics = load_intrinsics(args.intrinsics) if args.intrinsics else None
+    reader = VideoReader(args.video, args.fps)
+    tracker = BallTracker(layout, TrackerConfig(ball_color=args.ball_color, intrinsics=intrinsics,
+                                                tag_interval=args.tag_interval))
+    annotator = Annotator(tracker) if args.annotate else None
+    writer = None
+    detections, states = [], []
+    last_frame = None
+    interrupted = False
+    started = time.perf_counter()
+    try:
+        for index, t, frame in tqdm(reader.frames(), total=reader.declared_frames or None, desc="track_video",
+                                    unit="frame", disable=args.quiet):
+            stamp = t + args.start_time
+            detection = tracker.process(frame, stamp)
+            if detection is not None:
+                detections.append(detection)
+                state = tracker.kalman.state
+                states.append((stamp, state.x.copy()))
+            if annotator is not None:
+                drawn = annotator.draw(frame, detection)
+                if args.annotate.lower().endswith(".mp4"):
+                    if writer is None:
+                        writer = cv2.VideoWriter(args.annotate, cv2.VideoWriter_fourcc(*"mp4v"), reader.fps,
+                                                 (frame.shape[1], frame.shape[0]))
+                    writer.write(drawn)
+                last_frame = drawn
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        reader.close()
+        if writer is not None:
+            writer.release()
+    elapsed = time.perf_counter() - started
+    stats = tracker.stats
+    if tracker.stats.tag_fits == 0:
+        if stats.tags_seen and not (stats.tags_seen & set(layout.positions)):
+            raise MarkersError(f"the video shows tags {sorted(stats.tags_seen)} but the markers file places "
+                               f"{layout.ids}: wrong markers file or dictionary")
+        if tracker.last_fit_error:
+            raise MarkersError(f"no usable tag fit in {stats.frames} frames: {tracker.last_fit_error}")
+        raise MarkersError(f"no {layout.dictionary} tags found in {stats.frames} frames of {args.video}")
+    if not detections:
+        raise VisionError(f"no ball found in {stats.frames} frames (tags were found; try --ball-color)")
+    t = np.array([d.t for d in detections])
+    xyz = np.array([[d.x, d.y, d.z] for d in detections])
+    velocity = np.array([[s[1][2], s[1][3], 0.0] for s in states])
+    filtered = np.array([[s[1][0], s[1][1], d.z] for s, d in zip(states, detections)])
+    with BagWriter(args.out, storage=args.storage) as bag:
+        write_ball_detections(bag, t, xyz)
+        write_ball_states(bag, t, filtered, velocity)
+    if args.csv_pixels:
+        np.savetxt(args.csv_pixels, np.array([[d.t, d.u, d.v] for d in detections]), delimiter=",",
+                   header="t,u,v", comments="", fmt="%.6f")
+    if args.csv_metres:
+        v = central_differences(t, xyz[:, :2])
+        np.savetxt(args.csv_metres, np.column_stack([t, xyz[:, :2], v]), delimiter=",", header="t,x,y,vx,vy",
+                   comments="", fmt="%.6f")
+    if args.annotate and args.annotate.lower().endswith(".png") and last_frame is not None:
+        points = np.array([[d.u, d.v] for d in detections])
+        cv2.polylines(last_frame, [np.round(points).astype(np.int32)], False, (0, 200, 255), 1, cv2.LINE_AA)
+        cv2.imwrite(args.annotate, last_frame)
+    print(f"track_video: {len(detections)} detections in {stats.frames} frames ({len(detections) / stats.frames:.0%}), "
+          f"{stats.tag_fits} tag fits, colour {tracker.colour.name}, {stats.frames / elapsed:.0f} frames/s -> {args.out}")
+    if interrupted:
+        print("track_video: interrupted; the bag holds the frames tracked so far", file=sys.stderr)
+        return 130
+    if reader.truncated():
+        print(f"track_video: error: {args.video} ends after {reader.frames_read} of {reader.declared_frames} frames "
+              f"(corrupt or cut short); the bag holds the frames before", file=sys.stderr)
+        return 1
+    return 0
+
+
+def main(argv=None) -> None:
+    args = build_parser().parse_args(argv)
+    run_cli("track_video", lambda: track_video(args))
+
+
+if __name__ == "__main__":
+    main()

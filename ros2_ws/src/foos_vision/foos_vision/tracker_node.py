@@ -1,0 +1,103 @@
+"""tracker_node: /camera/image_raw -> /ball/detection (PointStamped) and /ball/state (Odometry).
+
+Stamps are the images' stamps (capture time). A frame without a ball publishes nothing.
+
+    ros2 run foos_vision tracker_node --ros-args -p markers:=table_markers.yaml -p ball_color:=yellow
+"""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PointStamped
+from nav_msgs.msg import Odometry
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from sensor_msgs.msg import Image
+
+from .camera import load_intrinsics
+from .cli_util import quiet_threads
+from .errors import VisionError
+from .markers import DEFAULT_MARKERS_FILE, load_markers
+from .ros_common import image_to_bgr, stamp_to_seconds
+from .tracker import BallTracker, TrackerConfig
+
+
+class TrackerNode(Node):
+    def __init__(self):
+        super().__init__("tracker_node")
+        self.declare_parameter("markers", str(DEFAULT_MARKERS_FILE))
+        self.declare_parameter("ball_color", "auto")
+        self.declare_parameter("intrinsics", "")  # calibrate_camera YAML; '' = no undistortion
+        self.declare_parameter("tag_interval", 30)
+        markers = load_markers(self.get_parameter("markers").value)
+        intrinsics_file = self.get_parameter("intrinsics").value
+        config = TrackerConfig(
+            ball_color=self.get_parameter("ball_color").value,
+            intrinsics=load_intrinsics(intrinsics_file) if intrinsics_file else None,
+            tag_interval=int(self.get_parameter("tag_interval").value),
+        )
+        self.tracker = BallTracker(markers, config)
+        self.detection_pub = self.create_publisher(PointStamped, "/ball/detection", 50)
+        self.state_pub = self.create_publisher(Odometry, "/ball/state", 50)
+        self.create_subscription(Image, "/camera/image_raw", self.on_image, 10)
+        self.warned_tags = False
+
+    def on_image(self, msg: Image) -> None:
+        t = stamp_to_seconds(msg.header.stamp)
+        try:
+            frame = image_to_bgr(msg)
+            detection = self.tracker.process(frame, t)
+        except ValueError as error:
+            self.get_logger().warning(f"frame at {t:.3f} s skipped: {error}")
+            return
+        if self.tracker.mapping is None and not self.warned_tags and self.tracker.stats.frames >= 30:
+            self.get_logger().warning(f"no tag fit yet: {self.tracker.last_fit_error or 'no tags seen'}")
+            self.warned_tags = True
+        if detection is None:
+            return
+        point = PointStamped()
+        point.header.stamp = msg.header.stamp
+        point.header.frame_id = "table"
+        point.point.x, point.point.y, point.point.z = detection.x, detection.y, detection.z
+        self.detection_pub.publish(point)
+        state = self.tracker.kalman.state
+        odom = Odometry()
+        odom.header = point.header
+        odom.child_frame_id = "ball"
+        odom.pose.pose.position.x, odom.pose.pose.position.y = float(state.x[0]), float(state.x[1])
+        odom.pose.pose.position.z = detection.z
+        odom.pose.pose.orientation.w = 1.0
+        odom.twist.twist.linear.x, odom.twist.twist.linear.y = float(state.x[2]), float(state.x[3])
+        pose_cov = np.zeros((6, 6))
+        pose_cov[:2, :2] = state.P[:2, :2]
+        twist_cov = np.zeros((6, 6))
+        twist_cov[:2, :2] = state.P[2:, 2:]
+        odom.pose.covariance = pose_cov.ravel().tolist()
+        odom.twist.covariance = twist_cov.ravel().tolist()
+        self.state_pub.publish(odom)
+
+
+def main(args=None) -> None:
+    quiet_threads()
+    rclpy.init(args=args)
+    node = None
+    code = 0
+    try:
+        node = TrackerNode()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except (VisionError, ValueError, OSError) as error:
+        print(f"tracker_node: error: {error}", file=sys.stderr)
+        code = 2
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    sys.exit(code)
+
+
+if __name__ == "__main__":
+    main()
