@@ -31,6 +31,8 @@ class PlayConfig:
     clock_hz: float = 0.0  # 0 = no /clock
     delay: float = 0.0  # s to wait after creating publishers, so subscribers can match
     start_offset: float = 0.0  # s into the bag to start from
+    wait_subscribers: int = 0  # wait until every topic has this many subscribers before playing
+    wait_timeout: float = 30.0
 
 
 def parse_remaps(items: list[str]) -> dict[str, str]:
@@ -132,7 +134,20 @@ class Player(Node):
         finally:
             reader.close()
 
+    def wait_for_subscribers(self) -> None:
+        """Block until every publisher has `wait_subscribers` matched subscriptions (BagError on timeout)."""
+        need, end = self.config.wait_subscribers, time.monotonic() + self.config.wait_timeout
+        while not self.stop:
+            lacking = [t for t, p in self.publishers_by_topic.items() if p.get_subscription_count() < need]
+            if not lacking:
+                return
+            if time.monotonic() > end:
+                raise BagError(f"no {need} subscriber(s) on {', '.join(lacking)} after {self.config.wait_timeout:g} s")
+            time.sleep(0.02)
+
     def play(self) -> None:
+        if self.config.wait_subscribers > 0:
+            self.wait_for_subscribers()
         if self.config.delay > 0:
             self._sleep(self.config.delay)
         while not self.stop:
@@ -165,6 +180,9 @@ def build_parser(prog: str = "ros2 bag play") -> argparse.ArgumentParser:
     )
     p.add_argument("-d", "--delay", type=float, default=0.0, help="seconds to wait before playing, so subscribers match")
     p.add_argument("--start-offset", type=float, default=0.0, help="start this many seconds into the bag")
+    p.add_argument("--wait-for-subscribers", type=int, default=0, metavar="N",
+                   help="before playing, wait until every played topic has N subscribers (e.g. a recorder)")
+    p.add_argument("--wait-timeout", type=float, default=30.0, help="give up waiting for subscribers after S seconds")
     return p
 
 
@@ -178,6 +196,8 @@ def config_from_args(ns: argparse.Namespace) -> PlayConfig:
         clock_hz=ns.clock,
         delay=ns.delay,
         start_offset=ns.start_offset,
+        wait_subscribers=ns.wait_for_subscribers,
+        wait_timeout=ns.wait_timeout,
     )
 
 
