@@ -82,6 +82,7 @@ class SimNode(Node):
             raise ValueError("real_time_factor 0 (as fast as possible) needs publish_clock:=true")
 
         self.runner = SimRunner(TableSimulation(params_file), config)
+        self._last_warning: dict[str, float] = {}
         self._stamp_base_ns = 0 if self.publish_clock else self.get_clock().now().nanoseconds
 
         self.joint_pub = self.create_publisher(JointState, "/joint_states", 10)
@@ -106,11 +107,17 @@ class SimNode(Node):
         try:
             applied = self.runner.command(team, msg.data)
         except CommandError as error:
-            self.get_logger().warning(f"/{team}/rods/command refused: {error}; rods keep their last command",
-                                      throttle_duration_sec=1.0)
+            self.warn_throttled(f"/{team}/rods/command refused: {error}; rods keep their last command")
             return
         if any(abs(a - v) > 1e-12 for a, v in zip(applied, msg.data)):
             self.get_logger().info(f"/{team}/rods/command clipped to the drive limits", throttle_duration_sec=5.0)
+
+    def warn_throttled(self, message: str, period: float = 1.0) -> None:
+        """Warn once per period for each distinct message (rclpy throttles per call site, hiding others)."""
+        now = time.monotonic()
+        if now - self._last_warning.get(message, -math.inf) >= period:
+            self._last_warning[message] = now
+            self.get_logger().warning(message)
 
     def on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         self.runner.reset()

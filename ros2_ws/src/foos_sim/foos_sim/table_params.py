@@ -93,6 +93,13 @@ def validate(tree: dict, source: str = "parameters") -> None:
         value = float(tree[dotted.split(".")[0]][dotted.split(".")[1]])
         if not value < 1.0:
             raise ParamsError(f"{source}: `{dotted}` must be in (0, 1), got {value}")
+    ball = tree["ball"]
+    # MuJoCo clamps every friction coefficient to at least 1e-5 (mjMINMU): a rolling friction of 1e-5 m
+    # is the least rolling resistance the model can express.
+    floor = 1e-5 * float(tree["gravity"]) / (1.4 * float(ball["radius"]))
+    if float(ball["rolling_deceleration"]) < floor * 1.001:
+        raise ParamsError(f"{source}: `ball.rolling_deceleration` below {floor:.4f} m/s^2 cannot be simulated "
+                          "(MuJoCo's least friction coefficient is 1e-5)")
     field, figure, rods = tree["field"], tree["figure"], tree["rods"]
     if field["goal_width"] >= field["width"]:
         raise ParamsError(f"{source}: the goal mouth is wider than the field")
