@@ -61,7 +61,7 @@ class Player(Node):
         self.config = config
         reader = open_reader(config.bag)
         try:
-            conns = reader.connections
+            conns = list(reader.connections)  # rosbags clears its own list on close
             self.bag_start_ns = reader.start_time if reader.message_count else 0
             available = {c.topic for c in conns}
         finally:

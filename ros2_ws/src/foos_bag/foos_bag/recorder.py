@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from functools import partial
 
 import rclpy
+from rclpy.exceptions import ParameterException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -212,6 +213,9 @@ def run(config: RecordConfig | None, args: list[str] | None = None) -> int:
     except BagError as exc:
         print(f"record: {exc}", file=sys.stderr)
         return 1
+    except ParameterException as exc:  # e.g. -p output:=N, which YAML reads as the boolean false
+        print(f"record: bad parameter: {str(exc).splitlines()[0]} (quote strings: -p output:=\"'N'\")", file=sys.stderr)
+        return 2
     finally:
         if recorder is not None:
             recorder.writer.close()  # no-op after finish(); on any error it keeps what was recorded
