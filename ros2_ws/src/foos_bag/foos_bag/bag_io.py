@@ -18,7 +18,6 @@ Every failure is a `BagError` whose message is one line that says what to do.
 """
 from __future__ import annotations
 
-import math
 import sqlite3
 import time
 from collections import defaultdict
@@ -882,16 +881,3 @@ def read_goals(path: str | Path, topic: str = GOAL_TOPIC) -> tuple[np.ndarray, l
         t.append(stamp * 1e-9)
         teams.append(msg.data)
     return np.asarray(t, dtype=np.float64), teams
-
-
-def finite_or_error(values: np.ndarray, what: str) -> np.ndarray:
-    """Raise a BagError when `values` holds NaN/inf (helper for producers validating their input)."""
-    if not np.all(np.isfinite(values)):
-        raise BagError(f"{what} contains NaN or infinity")
-    return values
-
-
-def seconds_to_ns(seconds: float) -> int:
-    if not math.isfinite(seconds) or seconds < 0:
-        raise BagError(f"invalid time {seconds} s")
-    return _ns(seconds)
