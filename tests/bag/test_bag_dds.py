@@ -10,7 +10,6 @@ import pytest
 from bag_helpers import BAGS
 
 from foos_bag import bag_io
-from foos_bag.repair import reindex  # noqa: F401  (import check: repair is ROS-free)
 
 SIM_TOPICS = ["/joint_states", "/ball/state", "/ball/detection", "/sim/goal"]
 

@@ -36,7 +36,6 @@ from rosbags.interfaces import (
     Qos,
 )
 from rosbags.rosbag2 import Reader, ReaderError
-from rosbags.rosbag2.enums import CompressionMode
 from rosbags.rosbag2.metadata import dump_qos_v9
 from rosbags.rosbag2.storage_mcap import McapWriter, PendingChunk, write_record, write_string
 from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
