@@ -47,8 +47,8 @@ class Lens:
         if not self.active:
             return pixels
         k = self.intrinsics.camera_matrix
-        out = cv2.undistortPointsIter(pixels.reshape(-1, 1, 2), k, self.intrinsics.dist_coeffs, None, k,
-                                      (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-6))
+        out = cv2.undistortPoints(pixels.reshape(-1, 1, 2), k, self.intrinsics.dist_coeffs, R=None, P=k,
+                                  criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-6))
         return out.reshape(-1, 2)
 
     def distort(self, pixels: np.ndarray) -> np.ndarray:

@@ -49,7 +49,7 @@ class DistortionMap:
         u, v = np.meshgrid(np.arange(camera.width, dtype=np.float32), np.arange(camera.height, dtype=np.float32))
         distorted = np.stack([u.ravel(), v.ravel()], axis=1).reshape(-1, 1, 2)
         criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-4)
-        ideal = cv2.undistortPointsIter(distorted, k, d, None, k, criteria).reshape(camera.height, camera.width, 2)
+        ideal = cv2.undistortPoints(distorted, k, d, R=None, P=k, criteria=criteria).reshape(camera.height, camera.width, 2)
         self.map_x, self.map_y = cv2.convertMaps(ideal[..., 0].astype(np.float32), ideal[..., 1].astype(np.float32),
                                                  cv2.CV_16SC2)
 

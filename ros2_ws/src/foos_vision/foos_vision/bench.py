@@ -1,0 +1,201 @@
+"""Accuracy and throughput of the tracker on rendered videos with known truth (scripts/bench_vision).
+
+Each case renders a rollout (rods kicking, random rolls, the ball picked up now and then), tracks it
+with the same code as track_video, and compares with the truth frame by frame:
+- position error (mm) of every detection of a frame where the ball is in view,
+- recall over frames where at least half the ball is visible,
+- false detections per 1000 frames where the ball is hidden entirely,
+- speed error (m/s, median) of central differences and of the Kalman filter,
+- tracker throughput on one core (frames/s; decoding excluded, and included).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+TARGETS = {"median_mm": 2.0, "p95_mm": 5.0, "recall": 0.98, "false_per_1000": 1.0}
+THROUGHPUT_TARGETS = {(640, 480): 200.0, (1280, 720): 60.0}
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    camera: str
+    width: int
+    height: int
+    fps: float
+    colour: str
+    blur: int = 1
+    distortion: tuple = ()
+    lighting: float = 1.0
+
+
+CASES = (
+    Case("overhead-640-120-white", "overhead", 640, 480, 120, "white"),
+    Case("overhead-1280-60-yellow", "overhead", 1280, 720, 60, "yellow", lighting=0.8),
+    Case("oblique-640-60-orange", "oblique", 640, 480, 60, "orange"),
+    Case("oblique-1280-120-yellow", "oblique", 1280, 720, 120, "yellow", lighting=1.2),
+    Case("overhead-640-120-red-lens", "overhead", 640, 480, 120, "red", distortion=(-0.28, 0.09)),
+    Case("overhead-640-60-white-blur", "overhead", 640, 480, 60, "white", blur=4),
+)
+
+
+def render_case(case: Case, out: Path, duration: float, seed: int, reuse: bool = False) -> Path:
+    video = out / f"{case.name}.mp4"
+    command = [sys.executable, "-m", "foos_vision.render_cli", str(video), "--camera", case.camera,
+               "--width", str(case.width), "--height", str(case.height), "--fps", str(case.fps),
+               "--ball-color", case.colour, "--blur", str(case.blur), "--lighting", str(case.lighting),
+               "--duration", str(duration), "--seed", str(seed), "--hide-every", "1.0", "--hide-for", "0.3",
+               "--visibility", "--overwrite", "--quiet"]
+    if case.distortion:
+        command += ["--distortion=" + ",".join(str(v) for v in case.distortion)]
+    if reuse and video.exists() and Path(f"{out / case.name}.truth.csv").exists():
+        return video
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+    return video
+
+
+def evaluate(video: Path, case: Case) -> dict:
+    import cv2
+
+    from .camera import load_intrinsics
+    from .markers import load_markers
+    from .render import read_truth
+    from .tracker import BallTracker, TrackerConfig
+    from .velocity import central_differences
+    from .video_io import VideoReader
+
+    stem = video.with_suffix("")
+    truth = read_truth(f"{stem}.truth.csv")
+    intrinsics = load_intrinsics_from_camera(Path(f"{stem}.camera.yaml")) if case.distortion else None
+    tracker = BallTracker(load_markers(f"{stem}.markers.yaml"), TrackerConfig(ball_color="auto", intrinsics=intrinsics))
+    reader = VideoReader(str(video))
+    frames = [frame for _, _, frame in reader.frames()]
+    reader.close()
+    start = time.perf_counter()
+    decode_start = time.perf_counter()
+    reader = VideoReader(str(video))
+    for _ in reader.frames():
+        pass
+    reader.close()
+    decode_time = time.perf_counter() - decode_start
+    detections = {}
+    kalman_v = {}
+    start = time.perf_counter()
+    for k, frame in enumerate(frames):
+        d = tracker.process(frame, k / reader.fps)
+        if d is not None:
+            detections[k] = d
+            kalman_v[k] = tracker.kalman.state.x[2:4].copy()
+    track_time = time.perf_counter() - start
+    n = len(frames)
+    visible = np.nan_to_num(truth["visible"][:n], nan=0.0)
+    in_view = ~np.isnan(truth["x"][:n]) & (visible > 0)
+    errors = np.array([math.hypot(d.x - truth["x"][k], d.y - truth["y"][k]) * 1000 for k, d in detections.items() if in_view[k]])
+    half = np.nonzero(visible >= 0.5)[0]
+    hidden = np.nonzero(visible <= 0.0)[0]
+    recall = float(np.mean([k in detections for k in half])) if len(half) else math.nan
+    false = sum(k in detections for k in hidden)
+    keys = sorted(detections)
+    t = np.array([detections[k].t for k in keys])
+    xy = np.array([[detections[k].x, detections[k].y] for k in keys])
+    v_true = np.array([[truth["vx"][k], truth["vy"][k]] for k in keys])
+    good = ~np.isnan(v_true[:, 0]) if len(keys) else np.zeros(0, bool)
+    v_cd = central_differences(t, xy) if len(keys) else np.zeros((0, 2))
+    v_kf = np.array([kalman_v[k] for k in keys]) if keys else np.zeros((0, 2))
+
+    def speed_error(v):
+        ok = good & ~np.isnan(v[:, 0])
+        return float(np.median(np.linalg.norm(v[ok] - v_true[ok], axis=1))) if np.any(ok) else math.nan
+
+    return {
+        "case": case.name, "frames": n, "detections": len(detections),
+        "median_mm": float(np.median(errors)) if len(errors) else math.nan,
+        "p95_mm": float(np.percentile(errors, 95)) if len(errors) else math.nan,
+        "recall": recall, "half_visible_frames": len(half),
+        "false_per_1000": 1000.0 * false / len(hidden) if len(hidden) else math.nan, "hidden_frames": len(hidden),
+        "speed_err_cd": speed_error(v_cd), "speed_err_kf": speed_error(v_kf),
+        "fps_track": n / track_time, "fps_with_decode": n / (track_time + decode_time),
+        "size": (case.width, case.height), "colour": tracker.colour.name,
+    }
+
+
+def load_intrinsics_from_camera(path: Path):
+    import yaml
+
+    from .camera import Intrinsics
+
+    tree = yaml.safe_load(path.read_text())["intrinsics"]
+    return Intrinsics(np.asarray(tree["camera_matrix"], float), np.asarray(tree["dist_coeffs"], float),
+                      int(tree["image_width"]), int(tree["image_height"]))
+
+
+def format_row(r: dict) -> str:
+    return (f"{r['case']:<28} {r['frames']:>5} {r['median_mm']:>7.2f} {r['p95_mm']:>7.2f} {100 * r['recall']:>7.1f} "
+            f"{r['false_per_1000']:>8.1f} {r['speed_err_cd']:>7.3f} {r['speed_err_kf']:>7.3f} "
+            f"{r['fps_track']:>7.0f} {r['fps_with_decode']:>7.0f}  {r['colour']}")
+
+
+HEADER = (f"{'case':<28} {'frames':>5} {'med mm':>7} {'p95 mm':>7} {'recall%':>7} {'false/1k':>8} "
+          f"{'|dv|cd':>7} {'|dv|kf':>7} {'fps':>7} {'fps+dec':>7}  colour")
+
+
+def run(duration: float, cases: list[Case], workdir: Path, seed: int = 1, echo=print, reuse: bool = False) -> list[dict]:
+    import cv2
+
+    cv2.setNumThreads(1)
+    results = []
+    echo(HEADER)
+    for i, case in enumerate(cases):
+        video = render_case(case, workdir, duration, seed + i, reuse)
+        result = evaluate(video, case)
+        results.append(result)
+        echo(format_row(result))
+    errors = np.array([[r["median_mm"], r["p95_mm"]] for r in results])
+    echo("")
+    echo(f"worst case: median {np.nanmax(errors[:, 0]):.2f} mm (target <= {TARGETS['median_mm']}), "
+         f"p95 {np.nanmax(errors[:, 1]):.2f} mm (<= {TARGETS['p95_mm']}), "
+         f"recall {100 * min(r['recall'] for r in results):.1f} % (>= {100 * TARGETS['recall']:.0f}), "
+         f"false {max(r['false_per_1000'] for r in results):.1f} /1000 (<= {TARGETS['false_per_1000']:g})")
+    for size, target in THROUGHPUT_TARGETS.items():
+        fps = [r["fps_track"] for r in results if r["size"] == size]
+        if fps:
+            echo(f"throughput {size[0]}x{size[1]}: median {np.median(fps):.0f} frames/s on one core "
+                 f"(target {target:.0f}; ratio {np.median(fps) / target:.2f})")
+    return results
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(prog="bench_vision", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--duration", type=float, default=4.0, help="seconds of video per case (default 4)")
+    p.add_argument("--cases", help="comma-separated case names (default all): " + ", ".join(c.name for c in CASES))
+    p.add_argument("--workdir", help="keep the rendered videos here (default a temporary directory)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--reuse", action="store_true", help="track the videos already in --workdir instead of rendering")
+    args = p.parse_args(argv)
+    cases = list(CASES)
+    if args.cases:
+        wanted = args.cases.split(",")
+        unknown = set(wanted) - {c.name for c in CASES}
+        if unknown:
+            p.error(f"unknown cases {sorted(unknown)}")
+        cases = [c for c in CASES if c.name in wanted]
+    if args.workdir:
+        Path(args.workdir).mkdir(parents=True, exist_ok=True)
+        run(args.duration, cases, Path(args.workdir), args.seed, reuse=args.reuse)
+    else:
+        with tempfile.TemporaryDirectory(prefix="bench_vision_") as tmp:
+            run(args.duration, cases, Path(tmp), args.seed)
+
+
+if __name__ == "__main__":
+    main()
