@@ -703,6 +703,8 @@ def open_reader(path: str | Path) -> Reader:
                 f"run `ros2 bag reindex {path}` to recover it"
             )
         raise BagError(f"{path} is not a bag: no metadata.yaml and no .mcap or .db3 file in it")
+    if path.is_dir():
+        _check_all_files_listed(path)
     if path.is_file() and path.suffix not in (".mcap", ".db3"):
         raise BagError(f"{path} is not a bag: expected a rosbag2 directory, a .mcap or a .db3 file")
     try:
@@ -717,6 +719,35 @@ def open_reader(path: str | Path) -> Reader:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise BagError(f"{path} is corrupt or truncated ({reason})") from None
     return reader
+
+
+def _check_all_files_listed(bag: Path) -> None:
+    """A split recording killed mid-file leaves metadata.yaml listing only the finished files: say so
+    rather than silently reading less."""
+    try:
+        info = YAML(typ="safe").load((bag / METADATA_FILE).read_text())["rosbag2_bagfile_information"]
+        listed = {Path(p).name for p in info.get("relative_file_paths", [])}
+    except Exception:
+        return  # the reader reports unreadable metadata with its own message
+    unlisted = sorted(
+        p.name for p in bag.iterdir() if p.suffix in (".mcap", ".db3") and p.name not in listed
+    )
+    if unlisted:
+        raise BagError(
+            f"{bag} holds {', '.join(unlisted)} that metadata.yaml does not list (its recorder was killed?); "
+            f"run `ros2 bag reindex {bag}` to include them"
+        )
+
+
+def storage_files(bag: str | Path) -> list[Path]:
+    """The .mcap/.db3 files of a bag directory in split order (NAME_0, NAME_1, ... NAME_10)."""
+    import re
+
+    def key(p: Path) -> tuple[int, str]:
+        m = re.search(r"_(\d+)\.(mcap|db3)$", p.name)
+        return (int(m.group(1)) if m else 0, p.name)
+
+    return sorted((p for p in Path(bag).iterdir() if p.suffix in (".mcap", ".db3")), key=key)
 
 
 def topics(path: str | Path) -> dict[str, tuple[str, int]]:

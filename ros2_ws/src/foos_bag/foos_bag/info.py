@@ -4,7 +4,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from foos_bag.bag_io import BagError, open_reader
+from foos_bag.bag_io import BagError, open_reader, storage_files
 
 
 def _size(n: float) -> str:
@@ -26,7 +26,7 @@ def summary(path: str | Path) -> str:
     reader = open_reader(path)
     try:
         if path.is_dir():
-            files = [p for p in sorted(path.iterdir()) if p.suffix in (".mcap", ".db3")]
+            files = storage_files(path)
         else:
             files = [path]
         size = sum(p.stat().st_size for p in files)

@@ -16,7 +16,6 @@ What it cannot recover
 """
 from __future__ import annotations
 
-import re
 import sqlite3
 import struct
 from dataclasses import dataclass, field
@@ -31,6 +30,7 @@ from foos_bag.bag_io import (
     _FlushingMcap,
     _qos_string,
     build_metadata,
+    storage_files,
     typestore,
     write_metadata,
 )
@@ -267,18 +267,14 @@ def _sqlite_rows(path: Path) -> tuple[list, dict, str]:
     return rows, {"path": path.name, "start": start, "end": end, "count": total}, check
 
 
-def _split_index(path: Path) -> tuple[int, str]:
-    m = re.search(r"_(\d+)\.(mcap|db3)$", path.name)
-    return (int(m.group(1)) if m else 0, path.name)
-
-
 def reindex(bag: str | Path) -> list[FileReport]:
     """Rebuild metadata.yaml from the bag's storage files, repairing MCAP files cut by a crash."""
     bag = Path(bag)
     if not bag.is_dir():
         raise BagError(f"{bag}: no such bag directory")
-    mcaps = sorted(bag.glob("*.mcap"), key=_split_index)
-    dbs = sorted(bag.glob("*.db3"), key=_split_index)
+    files = storage_files(bag)
+    mcaps = [p for p in files if p.suffix == ".mcap"]
+    dbs = [p for p in files if p.suffix == ".db3"]
     if mcaps and dbs:
         raise BagError(f"{bag} holds both .mcap and .db3 files; a bag has one storage kind")
     if not mcaps and not dbs:
