@@ -1,0 +1,144 @@
+"""Finding and loading policies: shipped ones by name, saved SB3 zips by path, and the baselines."""
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from .observation import ACTION_LIMIT
+
+BASELINES = ("zero", "random", "scripted")
+
+
+class PolicyError(ValueError):
+    """A policy that cannot be found or loaded; the message is one line for the user."""
+
+
+def shipped_dirs() -> list[Path]:
+    """Where shipped policies live: the installed share directory, then the source tree."""
+    dirs = []
+    try:
+        from ament_index_python.packages import get_package_share_directory
+
+        dirs.append(Path(get_package_share_directory("foos_policy")) / "policies")
+    except Exception:  # ROS-free use, or the package is not installed: the source tree still has them
+        pass
+    dirs.append(Path(__file__).resolve().parents[1] / "policies")
+    return [d for d in dirs if d.is_dir()]
+
+
+def shipped_policies() -> list[str]:
+    names = set()
+    for d in shipped_dirs():
+        names.update(p.stem for p in d.glob("*.zip"))
+    return sorted(names)
+
+
+def resolve_policy(spec: str) -> Path:
+    """A path to a .zip, or the name of a shipped policy (e.g. sac_hardened_scripted_s0)."""
+    path = Path(spec).expanduser()
+    if path.suffix == ".zip" or path.exists():
+        if not path.is_file():
+            raise PolicyError(f"policy file {path} does not exist")
+        return path
+    for d in shipped_dirs():
+        candidate = d / f"{spec}.zip"
+        if candidate.is_file():
+            return candidate
+    available = ", ".join(shipped_policies()) or "none"
+    raise PolicyError(f"no policy named `{spec}` (shipped: {available}; or give a PATH.zip)")
+
+
+def algo_of(path: Path) -> str:
+    """'sac' or 'tqc', read from the policy class recorded in an SB3 zip."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            data = json.loads(z.read("data"))
+    except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, OSError) as exc:
+        raise PolicyError(f"{path} is not a saved SB3 model ({exc.__class__.__name__})") from None
+    module = str(data.get("policy_class", {}).get("__module__", ""))
+    if "tqc" in module:
+        return "tqc"
+    if "sac" in module:
+        return "sac"
+    raise PolicyError(f"{path} holds a `{module or 'unknown'}` policy; only SAC and TQC are supported")
+
+
+def load_model(spec: str | Path):
+    path = resolve_policy(str(spec))
+    algo = algo_of(path)
+    if algo == "tqc":
+        from sb3_contrib import TQC as Algo
+    else:
+        from stable_baselines3 import SAC as Algo
+    try:
+        return Algo.load(path, device="cpu")
+    except Exception as exc:  # a damaged zip fails in many ways inside SB3/torch
+        raise PolicyError(f"cannot load {path}: {exc}".splitlines()[0]) from None
+
+
+class Policy:
+    """An own-view controller: predict(obs) -> action in [-20, 20]^8."""
+
+    name = "policy"
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+
+class ZeroPolicy(Policy):
+    name = "zero"
+
+    def predict(self, obs):
+        return np.zeros(8, np.float32)
+
+
+class RandomPolicy(Policy):
+    name = "random"
+
+    def __init__(self, seed: int = 0):
+        self.rng = np.random.default_rng(seed)
+
+    def predict(self, obs):
+        return self.rng.uniform(-ACTION_LIMIT, ACTION_LIMIT, 8).astype(np.float32)
+
+
+class ScriptedBaseline(Policy):
+    name = "scripted"
+
+    def __init__(self, params: dict, command_limits):
+        from .scripted import ScriptedPolicy
+
+        self.policy = ScriptedPolicy(params, command_limits)
+
+    def predict(self, obs):
+        return self.policy.predict(obs)
+
+
+class ModelPolicy(Policy):
+    def __init__(self, spec: str | Path):
+        self.path = resolve_policy(str(spec))
+        self.name = self.path.stem
+        self.model = load_model(self.path)
+
+    def predict(self, obs):
+        action, _ = self.model.predict(np.asarray(obs, np.float32), deterministic=True)
+        return np.clip(action, -ACTION_LIMIT, ACTION_LIMIT).astype(np.float32)
+
+
+def make_policy(spec: str, params: Optional[dict] = None, command_limits=None, seed: int = 0) -> Policy:
+    if spec == "zero":
+        return ZeroPolicy()
+    if spec == "random":
+        return RandomPolicy(seed)
+    if spec == "scripted":
+        if params is None or command_limits is None:
+            from foos_sim.simulation import TableSimulation
+
+            sim = TableSimulation()
+            params, command_limits = sim.params, sim.command_limits
+        return ScriptedBaseline(params, command_limits)
+    return ModelPolicy(spec)

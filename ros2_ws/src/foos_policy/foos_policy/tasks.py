@@ -1,0 +1,145 @@
+"""Tasks on top of the table model, dm_control style: a reset (serve), a reward, and an opponent.
+
+The env (foos_policy.env) owns the simulation and the episode bookkeeping; these small objects say how
+an episode starts, what it pays and who plays the away rods.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional, Protocol
+
+import numpy as np
+
+from .observation import ACTION_LIMIT
+
+RESETS = ("paper", "hardened")
+OPPONENTS = ("none", "scripted", "selfplay")
+
+
+# --- resets -------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PaperServe:
+    """The paper's reset: ball at the centre, served toward +y at a random speed up to max_speed."""
+
+    max_speed: float = 15.0        # m/s
+    lateral_speed: float = 0.5     # m/s, half-width of the uniform lateral noise
+    lateral_offset: float = 0.005  # m, half-width of the uniform x noise of the spot
+
+    def sample(self, rng: np.random.Generator, sim) -> tuple[np.ndarray, np.ndarray]:
+        position = np.array([rng.uniform(-self.lateral_offset, self.lateral_offset), 0.0])
+        velocity = np.array([rng.uniform(-self.lateral_speed, self.lateral_speed), rng.uniform(0.0, self.max_speed)])
+        return position, velocity
+
+
+@dataclass(frozen=True)
+class HardenedPlacement:
+    """Ball nearly still at a random spot in front of one of the home outfield rods: a goal needs a touch.
+
+    The spot is drawn uniformly in x within max_abs_x and in y within a strip `front` ahead of the
+    home defence, midfield or attack rod (one of the three at random), where a swinging foot reaches
+    it; elsewhere a still ball lies in a dead zone that no home figure can reach, and the episode
+    would only wait for stagnation. With speed <= max_speed (0.2 m/s rolls at most 0.13 m at
+    0.15 m/s^2) the ball stays more than 0.25 m from either goal line, and the goalie is left out so
+    no episode starts next to a goal.
+    """
+
+    max_abs_x: float = 0.30
+    max_speed: float = 0.20
+    front: tuple[float, float] = (0.035, 0.080)   # m ahead of the rod axis (toward +y)
+    rods: tuple[str, ...] = ("defence", "midfield", "attack")
+
+    def sample(self, rng: np.random.Generator, sim) -> tuple[np.ndarray, np.ndarray]:
+        layout = sim.params["rods"]["layout"]
+        rod_y = float(layout[f"home_{self.rods[rng.integers(len(self.rods))]}"]["y"])
+        x = rng.uniform(-self.max_abs_x, self.max_abs_x)
+        y = rod_y + rng.uniform(*self.front)
+        speed = rng.uniform(0.0, self.max_speed)
+        heading = rng.uniform(-np.pi, np.pi)
+        return np.array([x, y]), speed * np.array([np.cos(heading), np.sin(heading)])
+
+
+def make_reset(name: str):
+    if name == "paper":
+        return PaperServe()
+    if name == "hardened":
+        return HardenedPlacement()
+    raise ValueError(f"unknown reset `{name}` (expected one of {RESETS})")
+
+
+# --- reward --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PaperReward:
+    """R = 50 max(dy, 0) + 5 / (1 + |y_virtual - y|) + 1000 [home goal] - 1000 [own goal] - c |a|^2.
+
+    y in metres, own view; the virtual goal sits at `virtual_goal_fraction` of the half length toward
+    the opponent's goal; a is the action in the paper's [-20, 20] units.
+    """
+
+    progress_weight: float = 50.0
+    proximity_weight: float = 5.0
+    goal_reward: float = 1000.0
+    virtual_goal_fraction: float = 0.8
+    control_cost: float = 1e-4
+
+    def __call__(self, y_before: float, y_after: float, goal: Optional[str], action, half_length: float) -> float:
+        y_virtual = self.virtual_goal_fraction * half_length
+        reward = self.progress_weight * max(y_after - y_before, 0.0)
+        reward += self.proximity_weight / (1.0 + abs(y_virtual - y_after))
+        if goal == "home":
+            reward += self.goal_reward
+        elif goal == "away":
+            reward -= self.goal_reward
+        a = np.asarray(action, dtype=float)
+        reward -= self.control_cost * float(a @ a)
+        return float(reward)
+
+
+# --- opponents -----------------------------------------------------------------------------------
+class Opponent(Protocol):
+    def act(self, obs: np.ndarray) -> Optional[np.ndarray]:
+        """An own-view action for the away team, or None to leave its drives stopped."""
+
+
+class PassiveOpponent:
+    """The paper's setting: the away rods stand still, hanging, centred."""
+
+    def act(self, obs: np.ndarray) -> Optional[np.ndarray]:
+        return None
+
+
+class ScriptedOpponent:
+    """A goalie and defence that track the ball and clear it; the away midfield and attack are lifted."""
+
+    def __init__(self, params: dict, command_limits):
+        from .scripted import ScriptedPolicy
+
+        self.policy = ScriptedPolicy(params, command_limits, active=("goalie", "defence"))
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        return self.policy.predict(obs)
+
+
+class FrozenPolicyOpponent:
+    """Self-play: a saved SB3 policy plays the away rods through the mirrored observation."""
+
+    def __init__(self, path: str | Path):
+        from .policies import load_model
+
+        self.model = load_model(path)
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        action, _ = self.model.predict(obs, deterministic=True)
+        return np.clip(action, -ACTION_LIMIT, ACTION_LIMIT)
+
+
+def make_opponent(name: str, sim, opponent_policy: str | None = None) -> Opponent:
+    if name == "none":
+        return PassiveOpponent()
+    if name == "scripted":
+        return ScriptedOpponent(sim.params, sim.command_limits)
+    if name == "selfplay":
+        if not opponent_policy:
+            raise ValueError("--opponent selfplay needs --opponent-policy PATH.zip (the frozen policy)")
+        return FrozenPolicyOpponent(opponent_policy)
+    raise ValueError(f"unknown opponent `{name}` (expected one of {OPPONENTS})")

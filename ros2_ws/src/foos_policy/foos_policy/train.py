@@ -1,0 +1,196 @@
+"""`ros2 run foos_policy train`: SAC or TQC on the foosball env, with the paper's metrics and figures."""
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import time
+from pathlib import Path
+
+from .tasks import OPPONENTS, RESETS
+
+DESCRIPTION = """\
+Train SAC or TQC (stable-baselines3 / sb3-contrib) for the home team on the foosball twin.
+
+The env is the paper's task: 36-D observation, 8-D action in [-20, 20], the paper's reward, control
+at 50 Hz over the 20 kHz physics, episodes ending on a goal, 1 s of stagnant ball, or 10 s.
+
+Writes into --out DIR:
+  NAME.zip         the trained policy (NAME = ALGO_RESET_OPPONENT_sSEED unless --name), no replay buffer
+  metrics.csv      one row per episode: return, length, win, lose, term_goal, touches, ... and the
+                   paper's 50-episode Return50, EpLen50, WinRate50, LoseRate50, TermGoal50
+  figures/*.png    smoothed return, episode length, win/lose/goal-termination rates, return vs length
+  checkpoints/     intermediate models every --checkpoint-every steps
+  tb/              TensorBoard logs (tensorboard --logdir DIR/tb)
+  run.json         the command line, budget, wall time and steps/s of this run
+Ctrl-C stops early and still saves the model, metrics and figures.
+
+Example:
+  ros2 run foos_policy train --algo sac --steps 20000 --reset hardened --opponent scripted --seed 0 --out runs/sac_h_s0
+"""
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="train", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--algo", choices=("sac", "tqc"), default="sac", help="learning algorithm (default sac)")
+    p.add_argument("--steps", type=int, default=20000, help="environment steps to train (default 20000; ~85 steps/s on a free core)")
+    p.add_argument("--reset", choices=RESETS, default="paper", help="paper: the paper's centre serve; hardened: random still ball (default paper)")
+    p.add_argument("--opponent", choices=OPPONENTS, default="none",
+                   help="none: passive away rods; scripted: tracking goalie+defence; selfplay: a frozen policy (default none)")
+    p.add_argument("--opponent-policy", default=None, help="PATH.zip or shipped name of the frozen away policy for --opponent selfplay")
+    p.add_argument("--seed", type=int, default=0, help="seed of the env, the network init and the exploration (default 0)")
+    p.add_argument("--out", required=True, help="output directory (created; files in it are overwritten)")
+    p.add_argument("--name", default=None, help="file stem of the saved policy (default ALGO_RESET_OPPONENT_sSEED)")
+    p.add_argument("--n-envs", type=int, default=1, help="vectorised envs stepped together (DummyVecEnv, default 1)")
+    p.add_argument("--net", type=int, nargs="+", default=[64, 64], help="hidden layer sizes of actor and critics (default 64 64)")
+    p.add_argument("--learning-starts", type=int, default=1000, help="random steps before learning (default 1000)")
+    p.add_argument("--buffer-size", type=int, default=200_000, help="replay buffer size (default 200000)")
+    p.add_argument("--checkpoint-every", type=int, default=5000, help="steps between checkpoints (default 5000)")
+    p.add_argument("--time-limit", type=float, default=0.0,
+                   help="stop after this many wall-clock minutes even if --steps is not reached (0 = no limit); "
+                        "run.json records the steps actually done")
+    p.add_argument("--threads", type=int, default=1, help="torch threads (default 1: the CPU is shared)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    args = p.parse_args(argv)
+    if args.steps <= 0:
+        p.error("--steps must be positive")
+    if args.n_envs <= 0:
+        p.error("--n-envs must be positive")
+    if args.opponent == "selfplay" and not args.opponent_policy:
+        p.error("--opponent selfplay needs --opponent-policy PATH.zip")
+    return args
+
+
+def default_name(algo: str, reset: str, opponent: str, seed: int) -> str:
+    return f"{algo}_{reset}_{opponent}_s{seed}"
+
+
+def build_model(args, env, tb_dir: Path):
+    import torch
+
+    torch.set_num_threads(args.threads)
+    kwargs = dict(
+        policy="MlpPolicy", env=env, seed=args.seed, verbose=0, device="cpu",
+        learning_starts=args.learning_starts, buffer_size=args.buffer_size, batch_size=256,
+        tensorboard_log=str(tb_dir), policy_kwargs=dict(net_arch=list(args.net)),
+    )
+    if args.algo == "tqc":
+        from sb3_contrib import TQC
+
+        return TQC(**kwargs)
+    from stable_baselines3 import SAC
+
+    return SAC(**kwargs)
+
+
+def make_callbacks(metrics, total: int, progress: bool, checkpoint_dir: Path, checkpoint_every: int, name: str, n_envs: int,
+                   time_limit_s: float = 0.0):
+    from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
+
+    class EpisodeMetrics(BaseCallback):
+        """Writes a metrics.csv row for every finished episode and logs it to TensorBoard."""
+
+        def _on_step(self) -> bool:
+            for info in self.locals.get("infos", []):
+                stats = info.get("episode_stats")
+                if stats is None:
+                    continue
+                metrics.add(self.num_timesteps, stats)
+                for key in ("return", "length", "win", "lose", "term_goal", "touches"):
+                    self.logger.record_mean(f"episode/{key}", float(stats[key]))
+            return True
+
+    class Progress(BaseCallback):
+        def _on_training_start(self) -> None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, unit="step", desc=name, smoothing=0.05, disable=not progress, mininterval=2.0)
+            self.start = time.time()
+
+        def _on_step(self) -> bool:
+            self.bar.update(self.training_env.num_envs)
+            if metrics.episodes and self.n_calls % 200 == 0:
+                self.bar.set_postfix(episodes=metrics.episodes)
+            # the wall-clock budget: stop learning, keep everything learnt so far
+            return not (time_limit_s > 0 and time.time() - self.start > time_limit_s)
+
+        def _on_training_end(self) -> None:
+            self.bar.close()
+
+    checkpoints = CheckpointCallback(save_freq=max(checkpoint_every // n_envs, 1), save_path=str(checkpoint_dir), name_prefix=name)
+    return CallbackList([EpisodeMetrics(), Progress(), checkpoints])
+
+
+def train(args) -> dict:
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from .env import make_env
+    from .metrics import MetricsWriter, plot_metrics, summarize_tail
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    name = args.name or default_name(args.algo, args.reset, args.opponent, args.seed)
+
+    def env_factory(rank: int):
+        def make():
+            env = make_env(args.reset, args.opponent, args.opponent_policy)
+            env.reset(seed=args.seed * 1000 + rank)
+            return env
+        return make
+
+    env = DummyVecEnv([env_factory(i) for i in range(args.n_envs)])
+    env.seed(args.seed)
+    model = build_model(args, env, out / "tb")
+    metrics = MetricsWriter(out / "metrics.csv")
+    callbacks = make_callbacks(metrics, args.steps, not args.no_progress, out / "checkpoints", args.checkpoint_every, name, args.n_envs,
+                               args.time_limit * 60.0)
+
+    interrupted = False
+
+    def on_sigterm(signum, frame):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, on_sigterm)
+    start = time.time()
+    try:
+        model.learn(total_timesteps=args.steps, callback=callbacks, tb_log_name=name)
+    except KeyboardInterrupt:
+        interrupted = True
+    wall = time.time() - start
+    metrics.close()
+    model_path = out / f"{name}.zip"
+    model.save(model_path)
+    summary = {
+        "name": name, "algo": args.algo, "reset": args.reset, "opponent": args.opponent, "seed": args.seed,
+        "steps_requested": args.steps, "time_limit_min": args.time_limit, "steps_done": int(model.num_timesteps), "interrupted": interrupted,
+        "wall_s": round(wall, 1), "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 1),
+        "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
+        "command": "train " + " ".join(sys.argv[1:]) if sys.argv else "",
+        "model": str(model_path),
+    }
+    if metrics.episodes:
+        plot_metrics(out / "metrics.csv", out / "figures", title=name)
+        summary["final"] = summarize_tail(out / "metrics.csv")
+    (out / "run.json").write_text(json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    try:
+        summary = train(args)
+    except (ValueError, OSError) as exc:
+        print(f"train: {exc}".splitlines()[0], file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("train: interrupted before the model existed; nothing saved", file=sys.stderr)
+        return 130
+    print(json.dumps({k: summary[k] for k in ("name", "steps_done", "wall_s", "steps_per_s", "model")}))
+    if "final" in summary:
+        print(json.dumps(summary["final"]))
+    return 130 if summary["interrupted"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
