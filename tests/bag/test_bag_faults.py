@@ -17,9 +17,10 @@ RATE = 200.0  # Hz per topic
 DELIVERY = 0.5
 
 
-def record_then_signal(launch, tmp_path, domain: int, sig: int, storage: str):
+def record_then_signal(launch, tmp_path, domain: int, sig: int, storage: str, executor: str = "single"):
     bag = tmp_path / "bag"
-    rec = launch(["ros2", "bag", "record", *TOPICS, "-o", str(bag), "-s", storage], "recorder", domain)
+    rec = launch(["ros2", "bag", "record", *TOPICS, "-o", str(bag), "-s", storage, "--executor", executor],
+                 "recorder", domain)
     rec.wait_for("Recording", 30)
     pub = launch(
         ["ros2", "run", "foos_bag", "load_publisher", "--rate", str(RATE), "--topics", str(len(TOPICS)),
@@ -62,9 +63,13 @@ def check_kept(bag, published, signal_ns: int, lost_window: float) -> int:
 
 
 @pytest.mark.timeout(90)
-@pytest.mark.parametrize("sig,storage,domain", [(signal.SIGINT, "mcap", 21), (signal.SIGTERM, "sqlite3", 22)])
-def test_clean_stop_keeps_everything_received(launch, tmp_path, sig, storage, domain):
-    bag, rc, signal_ns, published, rec = record_then_signal(launch, tmp_path, domain, sig, storage)
+@pytest.mark.parametrize(
+    "sig,storage,executor,domain",
+    [(signal.SIGINT, "mcap", "single", 21), (signal.SIGTERM, "sqlite3", "single", 22),
+     (signal.SIGTERM, "mcap", "events", 29)],
+)
+def test_clean_stop_keeps_everything_received(launch, tmp_path, sig, storage, executor, domain):
+    bag, rc, signal_ns, published, rec = record_then_signal(launch, tmp_path, domain, sig, storage, executor)
     assert rc == 0, rec.text()
     assert "Recording stopped" in rec.text()
     kept = check_kept(bag, published, signal_ns, lost_window=0.0)

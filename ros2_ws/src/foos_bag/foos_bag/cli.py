@@ -49,6 +49,9 @@ def record_parser() -> argparse.ArgumentParser:
     p.add_argument("--flush-interval", type=float, default=0.1, help="s between flushes to disk: the most a SIGKILL "
                    "can lose (default 0.1)")
     p.add_argument("--use-sim-time", action="store_true", help="stamp messages with /clock time instead of wall time")
+    p.add_argument("--executor", choices=("single", "events"), default="single",
+                   help="rclpy executor: 'single' (default) or 'events' (rclpy's experimental EventsExecutor, "
+                   "less overhead per message; see scripts/bench_bag)")
     return p
 
 
@@ -76,6 +79,7 @@ def cmd_record(argv: list[str]) -> None:
         polling_interval=ns.polling_interval / 1000.0,
         flush_interval=ns.flush_interval,
         use_sim_time=ns.use_sim_time,
+        executor=ns.executor,
     )
     sys.exit(run(config, ["ros2_bag_record"]))
 

@@ -39,6 +39,7 @@ class RecordConfig:
     polling_interval: float = 0.1  # s between topic discoveries
     flush_interval: float = 0.1  # s, the most a SIGKILL can lose
     use_sim_time: bool = False
+    executor: str = "single"  # "single" (rclpy's default) or "events" (rclpy.experimental, less overhead)
 
 
 class TopicSelector:
@@ -110,6 +111,7 @@ class Recorder(Node):
             "max_bag_duration": 0.0,
             "polling_interval": 0.1,
             "flush_interval": 0.1,
+            "executor": "single",
         }
         for name, default in p.items():
             self.declare_parameter(name, default)
@@ -131,6 +133,7 @@ class Recorder(Node):
             polling_interval=float(get("polling_interval")),
             flush_interval=float(get("flush_interval")),
             use_sim_time=bool(self.get_parameter("use_sim_time").value),
+            executor=get("executor"),
         )
 
     def discover(self) -> None:
@@ -196,6 +199,16 @@ class _StopFlag:
         self.stop = True
 
 
+def make_executor(kind: str):
+    if kind == "events":
+        from rclpy.experimental import EventsExecutor
+
+        return EventsExecutor()
+    if kind != "single":
+        raise BagError(f"unknown executor {kind!r}: use 'single' or 'events'")
+    return SingleThreadedExecutor()
+
+
 def run(config: RecordConfig | None, args: list[str] | None = None) -> int:
     """Record until SIGINT/SIGTERM. Returns the exit code; errors are one line on stderr."""
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
@@ -203,7 +216,7 @@ def run(config: RecordConfig | None, args: list[str] | None = None) -> int:
     recorder = None
     try:
         recorder = Recorder(config)
-        executor = SingleThreadedExecutor()
+        executor = make_executor(recorder.config.executor)
         executor.add_node(recorder)
         while not flag.stop:
             executor.spin_once(timeout_sec=0.05)
