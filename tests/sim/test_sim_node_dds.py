@@ -184,7 +184,10 @@ def test_sim_time_clock_detections_and_reset_service(domain, probe):
         assert len(clocks) > 10 and np.all(np.diff(clocks) > 0), "/clock runs forward"
         assert clocks[0] < 1000.0, "sim time starts near zero"
         stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for _, m in probe.received["detection"]]
-        assert len(stamps) > 10 and max(stamps) <= clocks[-1] + 0.1
+        # Detection stamps are simulated capture times: on the /clock time base, increasing. (Arrival order
+        # across topics is not defined, so they are not compared message by message with /clock.)
+        assert len(stamps) > 10 and np.all(np.diff(stamps) > 0)
+        assert max(stamps) < max(clocks) + 1.0
         assert all(m.header.frame_id == "table" for _, m in probe.received["detection"])
         client = probe.node.create_client(Trigger, "/sim/reset")
         assert client.wait_for_service(timeout_sec=10.0)
