@@ -1,0 +1,107 @@
+"""The ROS-free core of policy_node: table-frame state in, one team's rod command out.
+
+It maps /joint_states (any joint order, by name) onto the contract's 16 joints, builds the team's
+own-view observation (mirrored for the away team), runs the policy, maps the action back onto the
+team's table-frame command, and decides when inputs are too old to act on.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from foos_sim.names import JOINT_NAMES, TEAMS
+
+from .observation import action_to_command, observe
+from .policies import Policy
+
+
+class StateError(ValueError):
+    """A state message the controller cannot use (missing joints, NaN); one line for the user."""
+
+
+@dataclass
+class JointSample:
+    stamp: float
+    positions: np.ndarray   # JOINT_NAMES order
+    velocities: np.ndarray
+
+
+@dataclass
+class BallSample:
+    stamp: float
+    position: np.ndarray
+    velocity: np.ndarray
+
+
+def joint_sample(stamp: float, names: Sequence[str], positions: Sequence[float], velocities: Sequence[float]) -> JointSample:
+    """Reorder a JointState's arrays into JOINT_NAMES order; missing velocities count as zero."""
+    index = {name: i for i, name in enumerate(names)}
+    missing = [n for n in JOINT_NAMES if n not in index]
+    if missing:
+        raise StateError(f"/joint_states lacks {len(missing)} of the 16 rod joints (e.g. {missing[0]})")
+    if len(positions) != len(names):
+        raise StateError("/joint_states has a different number of names and positions")
+    order = np.array([index[n] for n in JOINT_NAMES])
+    q = np.asarray(positions, dtype=float)[order]
+    dq = np.asarray(velocities, dtype=float)[order] if len(velocities) == len(names) else np.zeros(len(JOINT_NAMES))
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
+        raise StateError("/joint_states holds NaN or infinite values")
+    return JointSample(stamp, q, dq)
+
+
+def ball_sample(stamp: float, position: Sequence[float], velocity: Sequence[float]) -> BallSample:
+    p = np.asarray(position, dtype=float)
+    v = np.asarray(velocity, dtype=float)
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(v))):
+        raise StateError("/ball/state holds NaN or infinite values")
+    return BallSample(stamp, p, v)
+
+
+class PolicyController:
+    """One team's controller. `step(now)` returns (command, reason): the command to publish, and why
+    the rods are held (None when the policy acted)."""
+
+    def __init__(self, policy: Policy, team: str, command_limits, stale_after: float = 0.1):
+        if team not in TEAMS:
+            raise ValueError(f"team must be one of {TEAMS}, got `{team}`")
+        self.policy = policy
+        self.team = team
+        self.limits = np.asarray(command_limits, dtype=float)
+        self.stale_after = float(stale_after)
+        self.joints: Optional[JointSample] = None
+        self.ball: Optional[BallSample] = None
+        self.latencies: list[float] = []
+
+    def hold(self) -> np.ndarray:
+        """Rods held: zero target velocities keep every rod where it is."""
+        return np.zeros(8)
+
+    def stale_reason(self, now: float) -> Optional[str]:
+        for what, sample in (("/joint_states", self.joints), ("/ball/state", self.ball)):
+            if sample is None:
+                return f"no {what} received yet"
+            age = now - sample.stamp
+            if age > self.stale_after:
+                return f"{what} is {age:.2f} s old (stale after {self.stale_after:g} s)"
+        return None
+
+    def step(self, now: float) -> tuple[np.ndarray, Optional[str]]:
+        reason = self.stale_reason(now)
+        if reason is not None:
+            return self.hold(), reason
+        obs = observe(self.team, self.ball.position, self.ball.velocity, self.joints.positions, self.joints.velocities)
+        start = time.perf_counter()
+        action = self.policy.predict(obs)
+        self.latencies.append(time.perf_counter() - start)
+        return action_to_command(self.team, action, self.limits), None
+
+    def latency_stats(self) -> dict[str, float]:
+        """Inference latency over the calls since the last report, in milliseconds; resets the window."""
+        if not self.latencies:
+            return {}
+        ms = np.array(self.latencies) * 1e3
+        self.latencies = []
+        return {"n": int(ms.size), "median_ms": float(np.median(ms)), "p95_ms": float(np.percentile(ms, 95)), "max_ms": float(ms.max())}
