@@ -69,17 +69,19 @@ def evaluate(video: Path, case: Case) -> dict:
     from .camera import load_intrinsics
     from .markers import load_markers
     from .render import read_truth
-    from .tracker import BallTracker, TrackerConfig
+    from .tracker import BallTracker, TrackerConfig, choose_colour
     from .velocity import central_differences
     from .video_io import VideoReader
 
     stem = video.with_suffix("")
     truth = read_truth(f"{stem}.truth.csv")
     intrinsics = load_intrinsics_from_camera(Path(f"{stem}.camera.yaml")) if case.distortion else None
-    tracker = BallTracker(load_markers(f"{stem}.markers.yaml"), TrackerConfig(ball_color="auto", intrinsics=intrinsics))
+    layout = load_markers(f"{stem}.markers.yaml")
     reader = VideoReader(str(video))
     frames = [frame for _, _, frame in reader.frames()]
     reader.close()
+    colour = choose_colour(frames, layout, TrackerConfig(intrinsics=intrinsics), reader.fps) or "auto"
+    tracker = BallTracker(layout, TrackerConfig(ball_color=colour, intrinsics=intrinsics))
     start = time.perf_counter()
     decode_start = time.perf_counter()
     reader = VideoReader(str(video))

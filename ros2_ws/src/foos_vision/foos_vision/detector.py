@@ -52,9 +52,13 @@ def learn_colour(model: ColourModel, lab_pixels: np.ndarray) -> ColourModel:
     if len(lab_pixels) < 30:
         return model
     lab_pixels = lab_pixels.astype(float)
-    a, b = np.median(lab_pixels[:, 1]), np.median(lab_pixels[:, 2])
+    # The core pixels are the ball's most saturated; its rim blends into the felt and must stay inside the
+    # box for an unbiased centre. So the box follows the ball's hue, but only by half its width, and
+    # only ever grows.
+    shift = np.clip(np.median(lab_pixels[:, 1:], axis=0) - (model.a, model.b), -model.ab_tol / 2, model.ab_tol / 2)
+    a, b = model.a + shift[0], model.b + shift[1]
     spread = np.percentile(np.abs(lab_pixels[:, 1:] - (a, b)), 90, axis=0).max()
-    tol = float(np.clip(1.5 * spread + 4, 8, model.ab_tol))
+    tol = float(max(model.ab_tol, min(1.5 * spread + 4, 40)))
     # The core is the lit part of the ball; its shaded rim is darker, so lightness is only ever relaxed.
     l_min = int(min(model.l_min, max(20.0, np.percentile(lab_pixels[:, 0], 3) - 15)))
     return replace(model, a=float(a), b=float(b), ab_tol=tol, l_min=l_min)

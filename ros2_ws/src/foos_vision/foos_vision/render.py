@@ -162,7 +162,7 @@ def render_frames(renderer: SceneRenderer, state_at: StateAt, n_frames: int) -> 
 def write_truth(path: Path, truths: list[FrameTruth]) -> None:
     rows = np.array([[i, f.t, *f.position, *f.velocity, f.visible] for i, f in enumerate(truths)], float)
     header = "frame,t,x,y,z,vx,vy,vz,visible"
-    fmt = ["%d", "%.6f"] + ["%.6f"] * 6 + ["%.4f"]
+    fmt = ["%d", "%.9f"] + ["%.7f"] * 6 + ["%.4f"]
     np.savetxt(path, rows, delimiter=",", header=header, comments="", fmt=fmt)
 
 

@@ -68,6 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     src.add_argument("--hide-every", type=float, default=0.0,
                      help="take the ball out of sight about every this many seconds, for --hide-for s (default never)")
     src.add_argument("--hide-for", type=float, default=0.4)
+    src.add_argument("--no-ball", action="store_true", help="the ball is never in sight (for false-detection tests)")
     src.add_argument("--seed", type=int, default=0)
     cam = p.add_argument_group("camera")
     cam.add_argument("--camera", default="overhead", help="overhead, oblique, or a camera YAML (default overhead)")
@@ -125,7 +126,8 @@ def render_video(args: argparse.Namespace) -> int:
         rollout = BagRollout(sim, args.bag)
         duration = min(args.duration, rollout.duration) if "--duration" in sys.argv else rollout.duration
     else:
-        rollout = SimRollout(sim, args.scenario, seed=args.seed, hide_every=args.hide_every, hide_for=args.hide_for)
+        rollout = SimRollout(sim, args.scenario, seed=args.seed, hide_every=args.hide_every, hide_for=args.hide_for,
+                             no_ball=args.no_ball)
         duration = args.duration
     n_frames = int(math.floor(duration * camera.fps)) + 1
     options = RenderOptions(camera=camera, ball_colour=args.ball_color, subframes=args.blur, exposure=args.exposure,

@@ -24,13 +24,14 @@ class SimRollout:
     """Steps a TableSimulation forward to any requested time, with a scripted table around it."""
 
     def __init__(self, sim: TableSimulation, scenario: str = "play", seed: int = 0,
-                 hide_every: float = 0.0, hide_for: float = 0.4, speed_range=(0.3, 3.0)):
+                 hide_every: float = 0.0, hide_for: float = 0.4, speed_range=(0.3, 3.0), no_ball: bool = False):
         if scenario not in SCENARIOS:
             raise ValueError(f"unknown scenario `{scenario}` (one of {SCENARIOS})")
         self.sim, self.scenario = sim, scenario
         self.rng = np.random.default_rng(seed)
         self.speed_range = speed_range if scenario == "play" else (0.3, min(1.5, speed_range[1]))
         self.hide_every, self.hide_for = hide_every, hide_for
+        self.no_ball = no_ball
         self.steps = 0
         self.slow_since: Optional[float] = None
         self.hidden_until = -1.0
@@ -101,7 +102,7 @@ class SimRollout:
             if sim.time >= self.next_hide:
                 self.hidden_until = sim.time + self.hide_for
                 self.next_hide = sim.time + self.hide_every * self.rng.uniform(0.7, 1.3)
-        hidden = t < self.hidden_until
+        hidden = self.no_ball or t < self.hidden_until
         return sim.data.qpos.copy(), sim.ball_velocity(), hidden
 
 

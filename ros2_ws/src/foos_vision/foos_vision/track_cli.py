@@ -59,7 +59,7 @@ def track_video(args: argparse.Namespace) -> int:
     from .annotate import Annotator
     from .camera import load_intrinsics
     from .markers import load_markers
-    from .tracker import BallTracker, TrackerConfig
+    from .tracker import BallTracker, TrackerConfig, choose_colour
     from .velocity import central_differences
     from .video_io import VideoReader
 
@@ -75,9 +75,15 @@ def track_video(args: argparse.Namespace) -> int:
         raise VisionError("--annotate takes an .mp4 or .png path")
     layout = load_markers(args.markers)
     intrinsics = load_intrinsics(args.intrinsics) if args.intrinsics else None
+    config = TrackerConfig(ball_color=args.ball_color, intrinsics=intrinsics, tag_interval=args.tag_interval)
+    if args.ball_color == "auto":
+        # Settle the colour on the first seconds first, so the first frames are tracked with it too.
+        probe = VideoReader(args.video, args.fps)
+        frames = (frame for index, _, frame in probe.frames() if index < 10 * probe.fps)
+        config.ball_color = choose_colour(frames, layout, config, probe.fps) or "auto"
+        probe.close()
     reader = VideoReader(args.video, args.fps)
-    tracker = BallTracker(layout, TrackerConfig(ball_color=args.ball_color, intrinsics=intrinsics,
-                                                tag_interval=args.tag_interval))
+    tracker = BallTracker(layout, config)
     annotator = Annotator(tracker) if args.annotate else None
     writer = None
     detections, states = [], []

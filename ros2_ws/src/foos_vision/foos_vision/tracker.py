@@ -16,8 +16,9 @@ from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 from .velocity import ConstantVelocityKalman, KalmanState
 
 BALL_RADIUS = 0.0175
-# Where the ball can be: the playing field plus the goal pockets, with a ball radius of margin.
-FIELD_HALF_X, FIELD_HALF_Y, GOAL_HALF_X, GOAL_DEPTH = 0.34, 0.60, 0.10, 0.10
+# Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
+# pockets behind the mouths are roofed, so a camera above never sees a ball there, only the roof.
+FIELD_HALF_X, FIELD_HALF_Y, GOAL_HALF_X, GOAL_DEPTH = 0.34, 0.60, 0.10, 0.025
 
 
 @dataclass
@@ -26,8 +27,9 @@ class TrackerConfig:
     intrinsics: Optional[Intrinsics] = None
     tag_interval: int = 30  # frames between tag refits once the tags are found (the camera is mounted)
     fovy_hint: float = 50.0  # used only for parallax with tags off the ball plane and no intrinsics
-    auto_frames: int = 12  # frames used to pick the colour in auto mode
-    learn_after: int = 10  # confident detections before the colour model is narrowed to the ball seen
+    auto_frames: int = 8  # frames used to pick the colour in auto mode
+    learn_after: int = 0  # > 0: confident detections before the colour box is re-centred on the ball seen (off:
+    # on renders re-centring lost the ball's rim pixels and doubled the median error)
     measurement_std: float = 0.0015
 
 
@@ -157,13 +159,15 @@ class BallTracker:
         self.stats.frames_with_mapping += 1
         if not self._auto_done:
             self._vote_colour(bgr)
+            if not self._auto_done:
+                return None  # no colour yet: a guess could be a rod or a hand
         chosen, lab_roi, roi = self._find(bgr, t)
         if chosen is None:
             return None
         xy = self.pixel_to_table(chosen.u, chosen.v)
         self.kalman.update(t, xy)
         self.stats.detections += 1
-        if not self._learned and self._auto_done and self._confident(chosen):
+        if self.config.learn_after > 0 and not self._learned and self._auto_done and self._confident(chosen):
             self._collect_colour(lab_roi, roi, chosen)
         return Detection(t, float(xy[0]), float(xy[1]), BALL_CENTRE_HEIGHT, chosen.u, chosen.v, chosen.area_ratio)
 
@@ -231,7 +235,8 @@ class BallTracker:
 
         moving_votes = sum(1 for i, f in enumerate(frames) if len([p for p in f if not static(p, i)]) == 1)
         single = sum(1 for f in frames if len(f) == 1)
-        return moving_votes + 1e-3 * single  # a ball at rest throughout wins only when nothing moves
+        del single  # a blob that never moves is a fixture, not evidence of a ball
+        return moving_votes
 
     @property
     def colour(self) -> ColourModel:
@@ -249,3 +254,17 @@ class BallTracker:
         if len(self._learn_pixels) >= self.config.learn_after:
             self.detector = BallDetector(learn_colour(self.detector.model, np.concatenate(self._learn_pixels)))
             self._learned = True
+
+
+def choose_colour(frames, layout: MarkerLayout, config: TrackerConfig | None = None, fps: float = 30.0) -> Optional[str]:
+    """The ball colour `auto` settles on over these frames (None when it cannot tell), so an offline run
+    can track its first frames with the right colour too."""
+    config = config or TrackerConfig()
+    tracker = BallTracker(layout, TrackerConfig(ball_color="auto", intrinsics=config.intrinsics,
+                                                tag_interval=config.tag_interval, fovy_hint=config.fovy_hint,
+                                                auto_frames=config.auto_frames))
+    for k, frame in enumerate(frames):
+        tracker.process(frame, k / fps)
+        if tracker._auto_done:
+            return tracker.colour.name
+    return None

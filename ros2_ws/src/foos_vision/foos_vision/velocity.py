@@ -33,12 +33,12 @@ class ConstantVelocityKalman:
     """Constant velocity in the table plane, white-noise acceleration, position measurements.
 
     accel_noise is the spectral density of the unmodelled acceleration (m^2/s^3): rolling and friction
-    are small, wall and figure hits are not, so it is set for the hits and the innovation gate below
-    restarts the filter when a hit is too hard to follow.
+    are small, so it is small; wall and figure hits are not, and the innovation gate below
+    reopens the velocity when a hit is too hard to follow.
     """
 
-    def __init__(self, measurement_std: float = 0.0015, accel_noise: float = 30.0, max_gap: float = 0.25,
-                 restart_sigma: float = 6.0):
+    def __init__(self, measurement_std: float = 0.0015, accel_noise: float = 0.5, max_gap: float = 0.25,
+                 restart_sigma: float = 4.0):
         self.r = measurement_std**2
         self.q = accel_noise
         self.max_gap = max_gap
@@ -74,7 +74,11 @@ class ConstantVelocityKalman:
         innovation = xy - x[:2]
         s = p[:2, :2] + self.r * np.eye(2)
         if innovation @ np.linalg.solve(s, innovation) > self.restart_sigma**2:
-            return self._start(t, xy)
+            # A hit (wall, figure, hand): the old velocity is no guide; reopen it, keep the position prior.
+            p = p.copy()
+            p[2:, 2:] += np.eye(2) * 4.0
+            p[:2, :2] += np.eye(2) * float(innovation @ innovation)
+            s = p[:2, :2] + self.r * np.eye(2)
         gain = p[:, :2] @ np.linalg.inv(s)
         x = x + gain @ innovation
         p = (np.eye(4) - gain[:, :2] @ np.eye(2, 4)) @ p

@@ -2,13 +2,17 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 from typing import Iterator, Optional
 
-import cv2
-import numpy as np
+# FFmpeg's own log lines ("moov atom not found") would precede our one-line error; quiet it (-8 = quiet).
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
 
-from .errors import VideoError
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .errors import VideoError  # noqa: E402
 
 
 class VideoReader:

@@ -1,0 +1,36 @@
+"""Helpers of the vision tests: the user's environment (scripts/env.sh) and commands run the way a user
+runs them (`ros2 run foos_vision ...`). DDS tests use ROS_DOMAIN_ID from this area's range, 40-59."""
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+_ENV: dict[str, str] | None = None
+
+
+def workspace_env(domain: int | None = None) -> dict[str, str]:
+    """The environment a shell gets from `source scripts/env.sh` (computed once)."""
+    global _ENV
+    if _ENV is None:
+        out = subprocess.run(["bash", "-c", f"source {ROOT}/scripts/env.sh >/dev/null && env -0"],
+                             check=True, capture_output=True, cwd=ROOT).stdout.decode()
+        _ENV = dict(item.split("=", 1) for item in out.split("\0") if "=" in item)
+        _ENV["PYTHONUNBUFFERED"] = "1"
+        _ENV["OMP_NUM_THREADS"] = "1"
+    env = dict(_ENV)
+    if domain is not None:
+        env["ROS_DOMAIN_ID"] = str(domain)
+    return env
+
+
+def ros2_run(executable: str, *args: str, timeout: float = 120, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(["ros2", "run", "foos_vision", executable, *args], capture_output=True, text=True,
+                          env=workspace_env(), timeout=timeout, cwd=cwd or ROOT)
+
+
+def render(out: Path, *args: str, timeout: float = 120) -> Path:
+    """A rendered video (and its truth, camera and markers files) via `ros2 run foos_vision render_video`."""
+    result = ros2_run("render_video", str(out), "--quiet", *args, timeout=timeout)
+    assert result.returncode == 0, result.stderr
+    return out
