@@ -97,8 +97,10 @@ def _sub(parent: ET.Element, tag: str, **attributes) -> ET.Element:
 class TableModelBuilder:
     """Builds the MJCF of one table from its parameter tree."""
 
-    def __init__(self, params: dict):
+    def __init__(self, params: dict, ball_only: bool = False):
         self.params = params
+        # ball_only: the same table without rods and figures, for fast rollouts of a free ball
+        self.ball_only = ball_only
         self.physics = effects_mod.resolve(params)
         self.frequency = float(params["contact"]["natural_frequency"])
         self.timestep = float(params["solver"]["timestep"])
@@ -134,9 +136,10 @@ class TableModelBuilder:
         self._field(world)
         self._walls(world)
         self._ball(world)
-        actuators = _sub(root, "actuator")
-        for rod_name, rod in p["rods"]["layout"].items():
-            self._rod(world, actuators, rod_name, rod)
+        if not self.ball_only:
+            actuators = _sub(root, "actuator")
+            for rod_name, rod in p["rods"]["layout"].items():
+                self._rod(world, actuators, rod_name, rod)
         self._contacts(root)
         ET.indent(root)
         return ET.tostring(root, encoding="unicode")
@@ -167,7 +170,8 @@ class TableModelBuilder:
         low, high = float(height.min()), float(height.max())
         span = max(high - low, 1e-6)
         self._hfield_offset = low
-        elevation = (height - low) / span
+        # MuJoCo lays the elevation rows out from +y down to -y (image order): flip our -y-first grid.
+        elevation = ((height - low) / span)[::-1]
         _sub(
             asset, "hfield", name="field", nrow=nrow, ncol=ncol,
             size=_fmt(half_x, half_y, span, f["thickness"]),
@@ -274,6 +278,8 @@ class TableModelBuilder:
         p = self.params
         b = p["ball"]
         rolling_friction = effects_mod.ROLLING_MASS_FACTOR * b["radius"] * self.physics.rolling_deceleration / p["gravity"]
+        # Buoyancy of a fluid model lightens the contact; restore the rolling resistance it takes away.
+        rolling_friction *= effects_mod.buoyancy_factor(self.physics.air_density, b["radius"], b["mass"])
         contact = _sub(root, "contact")
         for geom, kind in self.ball_contact_geoms:
             if kind == "field":
@@ -307,6 +313,15 @@ def model_from_params(params: dict) -> mujoco.MjModel:
     model = mujoco.MjModel.from_xml_string(build_mjcf(params=params))
     _check_actuator_order(model)
     return model
+
+
+def ball_model_from_params(params: dict) -> mujoco.MjModel:
+    """The table without rods: field, walls, effects and the ball (free joint `ball`, qpos[0:7]).
+
+    Calibration rolls thousands of free-ball segments through it; everything the ball touches
+    away from the figures is the same as in the full model.
+    """
+    return mujoco.MjModel.from_xml_string(TableModelBuilder(params, ball_only=True).build())
 
 
 def _check_actuator_order(model: mujoco.MjModel) -> None:

@@ -1,0 +1,118 @@
+"""The rolling ball of the MuJoCo table as a point model, for fast fitting of the effect parameters.
+
+Between wall contacts a ball that rolls without slipping obeys, per unit mass (derivation in
+docs/calibration.md; each line is checked against MuJoCo in tests/calibration/test_effects.py):
+
+    a = 5/7 g s  -  d v/|v|  -  k v  -  c |v| v  -  5/7 g grad h(x, y)
+
+with s the surface slope (table_tilt), d the rolling deceleration (rolling_resistance), k the viscous
+rate, c the drag coefficient, and h the height of a cosine-bowl dent (surface_dent). Forces at the
+centre of a rolling ball act on 7/5 of its mass, which is why slopes enter with 5/7 and the
+contract's decelerations enter as they are. Integration is RK4, batched over segments (and over the
+perturbed copies a finite-difference Jacobian needs), so one numpy pass integrates all of them.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+G = 9.81
+ROLL = 5.0 / 7.0
+
+# The full parameter vector; a candidate model frees some entries and holds the rest at nominal.
+PARAM_NAMES = ("slope_x", "slope_y", "deceleration", "rate", "coefficient", "dent_x", "dent_y", "dent_radius", "dent_depth")
+EFFECT_PARAMS = {
+    "table_tilt": (0, 1),
+    "rolling_resistance": (2,),
+    "viscous_damping": (3,),
+    "air_drag": (4,),
+    "surface_dent": (5, 6, 7, 8),
+}
+
+
+def nominal_theta(rolling_deceleration: float = 0.15) -> np.ndarray:
+    return np.array([0.0, 0.0, rolling_deceleration, 0.0, 0.0, 0.0, 0.0, 0.1, 0.0])
+
+
+def acceleration(p: np.ndarray, v: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Acceleration (n, 2) of rolling balls at positions p (n, 2), velocities v (n, 2); theta (n, 9)."""
+    speed = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
+    # Below 5 mm/s the rolling resistance fades out, so a ball comes to rest instead of reversing.
+    a = ROLL * G * theta[:, 0:2] - theta[:, 2:3] * v / np.maximum(speed, 0.005)
+    a -= (theta[:, 3:4] + theta[:, 4:5] * speed) * v
+    depth = theta[:, 8]
+    if np.any(depth != 0.0):
+        delta = p - theta[:, 5:7]
+        dist = np.sqrt(np.einsum("ij,ij->i", delta, delta))
+        radius = theta[:, 7]
+        inside = dist < radius
+        slope = np.where(inside, 0.5 * depth * np.pi / radius * np.sin(np.pi * np.minimum(dist, radius) / radius), 0.0)
+        a -= (ROLL * G * slope / np.maximum(dist, 1e-9))[:, None] * delta
+    return a
+
+
+class _Coefficients:
+    """Theta's columns, pre-multiplied once per integration."""
+
+    def __init__(self, theta: np.ndarray):
+        self.gx, self.gy = ROLL * G * theta[:, 0], ROLL * G * theta[:, 1]
+        self.d, self.k, self.c = theta[:, 2], theta[:, 3], theta[:, 4]
+        self.dent = bool(np.any(theta[:, 8] != 0.0))
+        self.cx, self.cy, self.radius = theta[:, 5], theta[:, 6], theta[:, 7]
+        self.pull = ROLL * G * 0.5 * theta[:, 8] * np.pi / theta[:, 7]
+        self.wave = np.pi / theta[:, 7]
+
+    def __call__(self, px, py, vx, vy):
+        speed = np.sqrt(vx * vx + vy * vy)
+        drag = self.d / np.maximum(speed, 0.005) + self.k + self.c * speed
+        ax = self.gx - drag * vx
+        ay = self.gy - drag * vy
+        if self.dent:
+            dx, dy = px - self.cx, py - self.cy
+            dist = np.sqrt(dx * dx + dy * dy)
+            f = np.where(dist < self.radius, self.pull * np.sin(self.wave * np.minimum(dist, self.radius)) / np.maximum(dist, 1e-9), 0.0)
+            ax = ax - f * dx
+            ay = ay - f * dy
+        return ax, ay
+
+
+def integrate(p0: np.ndarray, v0: np.ndarray, theta: np.ndarray, nsteps: int, dt: float) -> np.ndarray:
+    """Positions (n, nsteps + 1, 2) on the grid k * dt from initial states (n, 2), RK4."""
+    n = p0.shape[0]
+    out = np.empty((n, nsteps + 1, 2))
+    acc = _Coefficients(theta)
+    px, py, vx, vy = p0[:, 0].copy(), p0[:, 1].copy(), v0[:, 0].copy(), v0[:, 1].copy()
+    out[:, 0, 0], out[:, 0, 1] = px, py
+    h2, h6 = 0.5 * dt, dt / 6.0
+    for k in range(nsteps):
+        ax1, ay1 = acc(px, py, vx, vy)
+        vx2, vy2 = vx + h2 * ax1, vy + h2 * ay1
+        ax2, ay2 = acc(px + h2 * vx, py + h2 * vy, vx2, vy2)
+        vx3, vy3 = vx + h2 * ax2, vy + h2 * ay2
+        ax3, ay3 = acc(px + h2 * vx2, py + h2 * vy2, vx3, vy3)
+        vx4, vy4 = vx + dt * ax3, vy + dt * ay3
+        ax4, ay4 = acc(px + dt * vx3, py + dt * vy3, vx4, vy4)
+        px = px + h6 * (vx + 2 * vx2 + 2 * vx3 + vx4)
+        py = py + h6 * (vy + 2 * vy2 + 2 * vy3 + vy4)
+        vx = vx + h6 * (ax1 + 2 * ax2 + 2 * ax3 + ax4)
+        vy = vy + h6 * (ay1 + 2 * ay2 + 2 * ay3 + ay4)
+        out[:, k + 1, 0], out[:, k + 1, 1] = px, py
+    return out
+
+
+def integrate_state(p0: np.ndarray, v0: np.ndarray, theta: np.ndarray, duration: np.ndarray, dt: float):
+    """Position and velocity of each ball after its own duration (n,), same RK4 (last step shortened)."""
+    p, v = p0.copy(), v0.copy()
+    remaining = np.asarray(duration, dtype=float).copy()
+    while np.any(remaining > 1e-12):
+        h = np.minimum(remaining, dt)[:, None]
+        a1 = acceleration(p, v, theta)
+        v2 = v + 0.5 * h * a1
+        a2 = acceleration(p + 0.5 * h * v, v2, theta)
+        v3 = v + 0.5 * h * a2
+        a3 = acceleration(p + 0.5 * h * v2, v3, theta)
+        v4 = v + h * a3
+        a4 = acceleration(p + h * v3, v4, theta)
+        p = p + h / 6.0 * (v + 2 * v2 + 2 * v3 + v4)
+        v = v + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
+        remaining = remaining - h[:, 0]
+    return p, v

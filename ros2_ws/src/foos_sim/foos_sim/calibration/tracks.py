@@ -1,0 +1,284 @@
+"""Measured ball detections: validation, tracks, wall contacts and the segments a model should predict.
+
+A track is an uninterrupted stretch of detections (a gap over MAX_GAP or a jump no ball can make
+starts a new one: the ball was picked up). A track is cut at wall contacts into flights. A flight
+that begins at a bounce starts sliding (the spin no longer matches the velocity); the rolling part
+of it, after SETTLE, is what the rolling-ball fit uses. Bounces themselves are fitted separately.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+MAX_GAP = 0.15  # s without a detection that ends a track
+MAX_SPEED = 8.0  # m/s; a faster apparent jump is a new launch or an outlier
+WALL_ZONE = 0.006  # m: within ball radius + this of a wall, the ball is taken to be in contact
+STOP_SPEED = 0.05  # m/s; slower than this the ball is at rest, not rolling
+MIN_SEGMENT = 0.25  # s
+MAX_SEGMENT = 1.5  # s, fitting pieces (each gets its own initial state)
+MIN_DETECTIONS = 200
+
+
+class DataError(ValueError):
+    """Measured data that cannot be calibrated on (one-line reason)."""
+
+
+@dataclass
+class Field:
+    half_x: float = 0.34
+    half_y: float = 0.60
+    goal_half_width: float = 0.10
+    ball_radius: float = 0.0175
+
+    @classmethod
+    def from_params(cls, params: dict) -> "Field":
+        f = params["field"]
+        return cls(f["width"] / 2, f["length"] / 2, f["goal_width"] / 2, float(params["ball"]["radius"]))
+
+    def wall_distance(self, xy: np.ndarray) -> np.ndarray:
+        """Distance (n,) from the ball centre to the nearest wall it can touch, minus the radius."""
+        x, y = np.abs(xy[:, 0]), np.abs(xy[:, 1])
+        side = self.half_x - self.ball_radius - x
+        end = self.half_y - self.ball_radius - y
+        # In front of a goal mouth there is no end wall to bounce from.
+        end = np.where(x < self.goal_half_width - self.ball_radius, np.inf, end)
+        post = np.hypot(x - self.goal_half_width, y - self.half_y) - self.ball_radius  # goal post edges
+        return np.minimum(np.minimum(side, end), post)
+
+    def inside(self, xy: np.ndarray) -> np.ndarray:
+        return (np.abs(xy[:, 0]) <= self.half_x) & (np.abs(xy[:, 1]) <= self.half_y)
+
+
+@dataclass
+class Flight:
+    """Detections between two wall contacts (or a track's ends)."""
+
+    track: int
+    t: np.ndarray
+    xy: np.ndarray
+    after_bounce: bool
+    before_bounce: bool
+    bounce_wall_in: str | None = None  # the wall of the bounce that starts this flight
+    v_in: np.ndarray | None = None  # velocity before that bounce (linear fit)
+
+
+@dataclass
+class Segment:
+    """A rolling piece of a flight: the fit gives it its own initial state."""
+
+    track: int
+    flight: int
+    t: np.ndarray
+    xy: np.ndarray
+
+
+@dataclass
+class Bounce:
+    """A wall contact with rolling data before it and data after it."""
+
+    track: int
+    wall: str  # side_neg_x, side_pos_x, end_home, end_away
+    t_contact: float
+    before: int  # index of the flight before
+    after: int
+    t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+
+def validate(t: np.ndarray, position: np.ndarray, frame_id: str) -> tuple[np.ndarray, np.ndarray]:
+    if frame_id not in ("table", ""):
+        raise DataError(f"/ball/detection is in frame `{frame_id}`, expected `table`")
+    t = np.asarray(t, dtype=float)
+    position = np.asarray(position, dtype=float)
+    if len(t) < MIN_DETECTIONS:
+        raise DataError(f"too little data: {len(t)} ball detections (need at least {MIN_DETECTIONS})")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(position))):
+        raise DataError("ball detections contain NaN or infinite values")
+    if np.any(np.diff(t) < 0):
+        raise DataError("detection timestamps go backwards")
+    keep = np.concatenate([[True], np.diff(t) > 1e-6])  # a repeated stamp is a duplicate message
+    return t[keep], position[keep, :2]
+
+
+def split_tracks(t: np.ndarray, xy: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    dt = np.diff(t)
+    jump = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    cut = np.flatnonzero((dt > MAX_GAP) | (jump > MAX_SPEED * np.maximum(dt, 1e-3)))
+    bounds = np.concatenate([[0], cut + 1, [len(t)]])
+    return [(t[a:b], xy[a:b]) for a, b in zip(bounds[:-1], bounds[1:]) if b - a >= 10]
+
+
+def _linear_velocity(t: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    if len(t) < 3:
+        return np.zeros(2)
+    A = np.stack([np.ones_like(t), t - t.mean()], axis=1)
+    coef, *_ = np.linalg.lstsq(A, xy, rcond=None)
+    return coef[1]
+
+
+def _window_velocity(t: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Least-squares velocity over each window of frames: t (n, w), xy (n, w, 2) -> (n, 2)."""
+    tc = t - t.mean(axis=1, keepdims=True)
+    xc = xy - xy.mean(axis=1, keepdims=True)
+    return np.einsum("nw,nwk->nk", tc, xc) / np.maximum(np.sum(tc**2, axis=1), 1e-12)[:, None]
+
+
+def contact_frames(field_: Field, t: np.ndarray, xy: np.ndarray, window: int = 6) -> np.ndarray:
+    """Frames at or around a wall contact.
+
+    At 3 m/s the ball moves 25 mm between frames, so a bounce is often never seen within a few mm of
+    the wall: a frame also counts when it is near a wall and the velocity after it differs from the
+    velocity before it by more than the noise allows.
+    """
+    distance = field_.wall_distance(xy)
+    near = distance < WALL_ZONE
+    n = len(t)
+    if n >= 2 * window:
+        from numpy.lib.stride_tricks import sliding_window_view as windows
+
+        tw, pw = windows(t, window), windows(xy, window, axis=0).transpose(0, 2, 1)
+        v = _window_velocity(tw, pw)  # velocity of frames i .. i+window-1
+        change = np.zeros(n)
+        # frame i: before = window ending at i, after = window starting at i
+        change[window - 1: n - window + 1] = np.linalg.norm(v[window - 1:] - v[: n - 2 * window + 2], axis=1)
+        speed = np.zeros(n)
+        speed[: len(v)] = np.linalg.norm(v, axis=1)
+        reach = 0.01 + 1.5 * speed * np.median(np.diff(t))
+        near |= (change > 0.25) & (distance < reach)
+    return near
+
+
+def _which_wall(field_: Field, xy: np.ndarray) -> str:
+    x, y = xy
+    side = field_.half_x - abs(x)
+    end = field_.half_y - abs(y)
+    if side < end:
+        return "side_pos_x" if x > 0 else "side_neg_x"
+    return "end_away" if y > 0 else "end_home"
+
+
+def flights_of_track(field_: Field, track: int, t: np.ndarray, xy: np.ndarray) -> tuple[list[Flight], list[tuple[int, int, float, str]]]:
+    """Flights, and contacts as (flight before, flight after, time, wall) within one track."""
+    inside = field_.inside(xy)
+    if not np.all(inside):  # the ball left the field (a goal): the track ends there
+        stop = int(np.argmin(inside))
+        t, xy = t[:stop], xy[:stop]
+    near = contact_frames(field_, t, xy)
+    flights: list[Flight] = []
+    contacts: list[tuple[int, int, float, str]] = []
+    i, n = 0, len(t)
+    pending = None  # (contact time, wall, velocity in) of the contact before the next flight
+    while i < n:
+        if near[i]:
+            j = i
+            while j < n and near[j]:
+                j += 1
+            k = int(i + np.argmin(field_.wall_distance(xy[i:j])))
+            wall = _which_wall(field_, xy[k])
+            before = flights[-1] if flights else None
+            v_in = _linear_velocity(before.t[-12:], before.xy[-12:]) if before is not None and len(before.t) >= 6 else None
+            pending = (float(t[k]), wall, v_in, len(flights) - 1 if before is not None else None)
+            if before is not None:
+                before.before_bounce = True
+            i = j
+            continue
+        j = i
+        while j < n and not near[j]:
+            j += 1
+        flight = Flight(track, t[i:j], xy[i:j], after_bounce=pending is not None, before_bounce=False)
+        if pending is not None:
+            flight.bounce_wall_in, flight.v_in = pending[1], pending[2]
+            if pending[3] is not None:
+                contacts.append((pending[3], len(flights), pending[0], pending[1]))
+        flights.append(flight)
+        pending = None
+        i = j
+    return flights, contacts
+
+
+def normal_speed(wall: str, v: np.ndarray) -> float:
+    """Speed toward the wall (positive when approaching)."""
+    if wall.startswith("side"):
+        return float(v[0] if wall.endswith("pos_x") else -v[0])
+    return float(v[1] if wall == "end_away" else -v[1])
+
+
+def settle_time(normal_in: float) -> float:
+    """Time after a bounce until the ball rolls again: sliding friction has to match spin to velocity.
+
+    The slip after a bounce is about (1 + e) v_n plus what the wall's friction does to the spin;
+    sliding friction (0.3 g) removes it at 7/2 mu g. The margin covers e up to 0.9 and the wall.
+    """
+    return 0.05 + 0.28 * abs(normal_in)
+
+
+def rolling_segments(flight: Flight, index: int) -> list[Segment]:
+    t, xy = flight.t, flight.xy
+    if flight.after_bounce:
+        # Incoming normal speed from before the bounce; where that flight is too short to tell,
+        # from the outgoing speed and the lowest restitution a table could have.
+        normal = normal_speed(flight.bounce_wall_in, flight.v_in) if flight.v_in is not None else 0.0
+        v_out = _linear_velocity(t[:8], xy[:8])
+        normal = max(normal, abs(normal_speed(flight.bounce_wall_in, v_out)) / 0.4)
+        keep = t >= t[0] + settle_time(normal)
+        t, xy = t[keep], xy[keep]
+    if len(t) < 10:
+        return []
+    # Stop where the ball comes to rest (speed from 0.2 s chords).
+    step = max(1, int(round(0.2 / max(np.median(np.diff(t)), 1e-3))))
+    if len(t) > step:
+        speed = np.linalg.norm(xy[step:] - xy[:-step], axis=1) / (t[step:] - t[:-step])
+        slow = np.flatnonzero(speed < STOP_SPEED)
+        if slow.size:
+            t, xy = t[: slow[0] + step // 2], xy[: slow[0] + step // 2]
+    if flight.before_bounce:  # two frames of margin before the contact zone
+        t, xy = t[:-2], xy[:-2]
+    segments = []
+    if len(t) == 0 or t[-1] - t[0] < MIN_SEGMENT:
+        return segments
+    pieces = max(1, int(np.ceil((t[-1] - t[0]) / MAX_SEGMENT)))
+    edges = np.linspace(t[0], t[-1] + 1e-9, pieces + 1)
+    for a, b in zip(edges[:-1], edges[1:]):
+        m = (t >= a) & (t < b)
+        if m.sum() >= 20 and t[m][-1] - t[m][0] >= MIN_SEGMENT:
+            segments.append(Segment(flight.track, index, t[m], xy[m]))
+    return segments
+
+
+@dataclass
+class Measured:
+    """Everything calibration needs from the detections."""
+
+    t: np.ndarray
+    xy: np.ndarray
+    tracks: list[tuple[np.ndarray, np.ndarray]]
+    flights: list[Flight]
+    segments: list[Segment]
+    bounces: list[Bounce]
+    noise: float  # m, detection noise estimated from second differences
+
+
+def analyse(t: np.ndarray, xy: np.ndarray, field_: Field) -> Measured:
+    tracks = split_tracks(t, xy)
+    flights: list[Flight] = []
+    segments: list[Segment] = []
+    bounces: list[Bounce] = []
+    for k, (tt, pp) in enumerate(tracks):
+        fl, contacts = flights_of_track(field_, k, tt, pp)
+        base = len(flights)
+        flights += fl
+        for f_index, flight in enumerate(fl):
+            segments += rolling_segments(flight, base + f_index)
+        for before, after, t_contact, wall in contacts:
+            bounces.append(Bounce(k, wall, t_contact, base + before, base + after))
+    # Noise: second differences of 3 consecutive frames are dominated by it (sqrt(6) sigma).
+    d2 = []
+    for tt, pp in tracks:
+        ok = (np.abs(np.diff(tt)[1:] - np.diff(tt)[:-1]) < 1e-4)
+        if len(pp) > 3:
+            second = pp[2:] - 2 * pp[1:-1] + pp[:-2]
+            d2.append(second[ok])
+    d2 = np.concatenate(d2) if d2 else np.zeros((0, 2))
+    noise = float(1.4826 * np.median(np.abs(d2)) / np.sqrt(6)) if len(d2) > 20 else 0.0015
+    return Measured(t, xy, tracks, flights, segments, bounces, max(noise, 2e-4))
