@@ -108,7 +108,7 @@ def analyze_game(params: dict, t: np.ndarray, ball_position: np.ndarray, ball_ve
     shots: list[list[float]] = [[], []]
     for team, direction in ((0, 1.0), (1, -1.0)):
         for k in np.flatnonzero(starts[:, team]):
-            window = (t > t[k]) & (t <= t[k] + SHOT_WINDOW)
+            window = (t > t[k]) & (t <= t[k] + SHOT_WINDOW + 1e-4)  # margin: bag stamps are rounded to ns
             if not window.any():
                 continue
             speeds = np.hypot(vel[window, 0], vel[window, 1])
@@ -168,6 +168,15 @@ def play_game(policy, seconds: float, seed: int = 0, team: str = "home", opponen
               params_file: Optional[str] = None, progress: bool = False) -> dict:
     """A game as sim_node plays it (random serves, 100 Hz samples), with `policy` on `team` and an
     optional `opponent` policy on the other team; returns analyze_game's statistics."""
+    samples = play_game_samples(policy, seconds, seed, team, opponent, control_rate, params_file, progress)
+    return analyze_game(samples["params"], samples["t"], samples["ball_position"], samples["ball_velocity"],
+                        samples["t"], samples["joint_positions"], samples["goals"])
+
+
+def play_game_samples(policy, seconds: float, seed: int = 0, team: str = "home", opponent=None,
+                      control_rate: float = 50.0, params_file: Optional[str] = None, progress: bool = False) -> dict:
+    """The raw 100 Hz samples of an in-process game: t, ball_position, ball_velocity, joint_positions,
+    joint_velocities, goals (scoring teams), goal_times and the table params."""
     from tqdm import tqdm
 
     from foos_sim.sim_runner import Goal, RunnerConfig, SimRunner, StateSample
@@ -180,7 +189,7 @@ def play_game(policy, seconds: float, seed: int = 0, team: str = "home", opponen
     period = 1.0 / control_rate
     next_tick = runner.time
     latest: Optional[StateSample] = None
-    ts, pos, vel, qs, goals = [], [], [], [], []
+    ts, pos, vel, qs, dqs, goals, goal_times = [], [], [], [], [], [], []
     bar = tqdm(total=int(seconds), unit="sim s", disable=not progress)
     while runner.time < seconds:
         for event in runner.advance():
@@ -190,10 +199,12 @@ def play_game(policy, seconds: float, seed: int = 0, team: str = "home", opponen
                 pos.append(event.ball_position)
                 vel.append(event.ball_velocity)
                 qs.append(event.joint_positions)
+                dqs.append(event.joint_velocities)
                 if len(ts) % 100 == 0:
                     bar.update(int(event.time) - bar.n)
             elif isinstance(event, Goal):
                 goals.append(event.team)
+                goal_times.append(event.time)
         if latest is not None and runner.time + 1e-9 >= next_tick:
             next_tick += period
             for who, pol in ((team, policy), (other_team(team), opponent)):
@@ -202,9 +213,9 @@ def play_game(policy, seconds: float, seed: int = 0, team: str = "home", opponen
                 obs = observe(who, latest.ball_position, latest.ball_velocity, latest.joint_positions, latest.joint_velocities)
                 runner.command(who, action_to_command(who, pol.predict(obs), sim.command_limits))
     bar.close()
-    t = np.array(ts)
-    q = np.array(qs)
-    return analyze_game(sim.params, t, np.array(pos), np.array(vel), t, q, goals)
+    return {"t": np.array(ts), "ball_position": np.array(pos), "ball_velocity": np.array(vel),
+            "joint_positions": np.array(qs), "joint_velocities": np.array(dqs), "goals": goals,
+            "goal_times": np.array(goal_times), "params": sim.params}
 
 
 def finite_or_none(x) -> Optional[float]:
