@@ -65,6 +65,16 @@ def test_evaluate_writes_a_summary_with_confidence_intervals(trained, run_cli, t
         assert summary["episodes"] == 4
 
 
+@pytest.mark.timeout(180)
+def test_self_play_against_a_frozen_policy(trained, run_cli, tmp_path):
+    out, _ = trained
+    frozen = str(out / "sac_hardened_scripted_s3.zip")
+    proc = run_cli("evaluate", "--policy", frozen, "--reset", "hardened", "--opponent", "selfplay", "--opponent-policy", frozen,
+                   "--episodes", "2", "--out", str(tmp_path / "selfplay.json"), "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads((tmp_path / "selfplay.json").read_text())["opponent"] == "selfplay"
+
+
 def test_metrics_smoothing_and_reader(tmp_path):
     from foos_policy.metrics import MetricsWriter, read_metrics
 

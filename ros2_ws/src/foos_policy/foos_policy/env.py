@@ -30,7 +30,7 @@ CHUNK = 5  # physics steps between goal / touch checks
 @dataclass
 class EnvConfig:
     reset: str = "paper"                # paper | hardened
-    opponent: str = "none"              # none | scripted | selfplay
+    opponent: str = "none"              # none | scripted | selfplay | lifted
     opponent_policy: Optional[str] = None
     control_rate: float = 50.0          # Hz
     max_steps: int = 500                # time limit: 10 s at 50 Hz
@@ -113,7 +113,9 @@ class FoosballEnv(gym.Env):
     def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
         super().reset(seed=seed)
         position, velocity = self.reset_task.sample(self.np_random, self.sim)
-        self.sim.reset(ball_position=position, ball_velocity=velocity)
+        initial_joints = getattr(self.opponent, "initial_joint_positions", None)
+        self.sim.reset(ball_position=position, ball_velocity=velocity,
+                       joint_positions=initial_joints() if initial_joints else None)
         self.stats = EpisodeStats(final_y=float(position[1]))
         self._touching = [False, False]
         self._stagnant_count = 0

@@ -14,7 +14,7 @@ import numpy as np
 from .observation import ACTION_LIMIT
 
 RESETS = ("paper", "hardened")
-OPPONENTS = ("none", "scripted", "selfplay")
+OPPONENTS = ("none", "scripted", "selfplay", "lifted")
 
 
 # --- resets -------------------------------------------------------------------------------------
@@ -108,6 +108,25 @@ class PassiveOpponent:
         return None
 
 
+class LiftedOpponent:
+    """A diagnostic: every away rod horizontal, out of play from the first step, so nothing stands in the
+    serve's way (how an empty opponent half lets the paper's serve score)."""
+
+    def __init__(self, params: dict, command_limits):
+        from .scripted import ScriptedPolicy
+
+        self.policy = ScriptedPolicy(params, command_limits, active=())
+
+    def initial_joint_positions(self) -> np.ndarray:
+        from foos_sim.names import JOINT_NAMES
+
+        # own view +pi/2 (ScriptedPolicy.LIFTED) is -pi/2 in the table frame for the mirrored away team
+        return np.array([-np.pi / 2 if n.startswith("away_") and n.endswith("_rotate") else 0.0 for n in JOINT_NAMES])
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        return self.policy.predict(obs)
+
+
 class ScriptedOpponent:
     """A goalie and defence that track the ball and clear it; the away midfield and attack are lifted."""
 
@@ -138,6 +157,8 @@ def make_opponent(name: str, sim, opponent_policy: str | None = None) -> Opponen
         return PassiveOpponent()
     if name == "scripted":
         return ScriptedOpponent(sim.params, sim.command_limits)
+    if name == "lifted":
+        return LiftedOpponent(sim.params, sim.command_limits)
     if name == "selfplay":
         if not opponent_policy:
             raise ValueError("--opponent selfplay needs --opponent-policy PATH.zip (the frozen policy)")
