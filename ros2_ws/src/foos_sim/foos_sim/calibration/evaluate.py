@@ -117,3 +117,12 @@ def summary(errors: np.ndarray, seed: int = 0, n_boot: int = 1000) -> dict:
         out[f"ci95_mm_{key}"] = [round(float(np.percentile(boot, 2.5)), 2), round(float(np.percentile(boot, 97.5)), 2)]
         out[f"n_{key}"] = int(len(e))
     return out
+
+
+def errors_of(measured: Measured, starts: list[Start], positions_at_horizons: np.ndarray) -> np.ndarray:
+    """(starts, horizons) errors of predicted positions (starts, horizons, 2)."""
+    err = np.full((len(starts), len(HORIZONS)), np.nan)
+    for i, s in enumerate(starts):
+        truth = measured_at(measured, s.track, s.t0 + np.array(HORIZONS))
+        err[i] = np.linalg.norm(positions_at_horizons[i] - truth, axis=1)
+    return err

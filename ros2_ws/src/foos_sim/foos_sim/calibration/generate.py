@@ -79,6 +79,17 @@ def dent_gradient(dents: Sequence[Dent], x: np.ndarray, y: np.ndarray) -> tuple[
     return gx, gy
 
 
+def surrogate_theta(hidden: HiddenEffects, nominal_rolling: float = 0.15) -> np.ndarray:
+    """The hidden table in the fitting surrogate's parameters (first dent only)."""
+    theta = np.array([hidden.slope[0], hidden.slope[1],
+                      hidden.rolling_deceleration if hidden.rolling_deceleration is not None else nominal_rolling,
+                      hidden.viscous_rate, hidden.drag_coefficient, 0.0, 0.0, 0.1, 0.0])
+    if hidden.dents:
+        d = hidden.dents[0]
+        theta[5:9] = (d.x, d.y, d.radius, d.depth)
+    return theta
+
+
 class HiddenTable:
     """The nominal ball-only MuJoCo table, driven by hidden forces from a Python loop."""
 
@@ -94,7 +105,7 @@ class HiddenTable:
         self.nominal_restitution = float(self.params["walls"]["restitution"])
         self.half = np.array([self.params["field"]["width"] / 2, self.params["field"]["length"] / 2])
         self.goal_half_width = self.params["field"]["goal_width"] / 2
-        self.ball_geom = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, "ball")
+        self.ball_body = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "ball")
         self.wall_geoms = {
             i for i in range(self.model.ngeom)
             if (mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, i) or "").startswith("wall")
@@ -144,7 +155,7 @@ class HiddenTable:
 
     def step_block(self) -> None:
         """CONTROL_STEPS physics steps with the hidden forces (single steps near a wall)."""
-        self.data.xfrc_applied[1, :2] = self._force()
+        self.data.xfrc_applied[self.ball_body, :2] = self._force()
         if self.hidden.restitution is None or not self.near_wall():
             mujoco.mj_step(self.model, self.data, nstep=CONTROL_STEPS)
             return
@@ -185,6 +196,18 @@ class HiddenTable:
             if self.off_field() or self.speed() < 0.01:
                 break
         return np.array(times), np.array(positions)
+
+
+def predict_from(hidden: HiddenEffects, states: np.ndarray, horizons: Sequence[float]) -> np.ndarray:
+    """Positions (n, H, 2) the hidden table gives from rolling states (x, y, vx, vy) after each horizon."""
+    table = HiddenTable(hidden)
+    out = np.full((len(states), len(horizons), 2), np.nan)
+    for i, (x, y, vx, vy) in enumerate(states):
+        table.reset((x, y), (vx, vy))
+        times, positions = table.roll(max(horizons) + 0.002)
+        for j, h in enumerate(horizons):
+            out[i, j] = (np.interp(h, times, positions[:, 0]), np.interp(h, times, positions[:, 1]))
+    return out
 
 
 @dataclass

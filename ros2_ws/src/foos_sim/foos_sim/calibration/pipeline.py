@@ -28,6 +28,9 @@ class Options:
     max_starts: int = 60
     seed: int = 0
     figures: bool = True
+    # Benchmarks only: (surrogate theta of the true table, predictor(states (n,4), horizons) -> (n, H, 2)),
+    # to report the error of the true generating model from the same starts (the floor).
+    floor: tuple | None = None
 
 
 def describe(effect: dict, nominal_rolling: float, nominal_restitution: float) -> str:
@@ -102,6 +105,16 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
     predictions = predict(measured, starts, models) if starts else None
     baseline = summary(predictions.errors["nominal"], options.seed) if predictions else {"median_error_mm_1s": None}
     calibrated = summary(predictions.errors["calibrated"], options.seed) if predictions and effects else dict(baseline)
+    if options.floor is not None and starts:
+        from .evaluate import errors_of, estimate_states
+
+        floor_started = time.monotonic()
+        floor_theta, predictor = options.floor
+        states = estimate_states(starts, [floor_theta] * len(starts))
+        floor = summary(errors_of(measured, starts, predictor(states, HORIZONS)), options.seed)
+        started += time.monotonic() - floor_started  # the floor is the benchmark's, not calibration's time
+    else:
+        floor = None
     for block, n in ((baseline, len(starts)), (calibrated, len(starts))):
         block["starts"] = n
 
@@ -135,6 +148,8 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
         if predictions:
             figures.tracks_overlay(measured, field, predictions, out_dir / "tracks.png")
         report["figures"] = [p.name for p in sorted(out_dir.glob("*.png"))]
+    if floor is not None:
+        report["floor"] = floor
     report["runtime_s"] = round(time.monotonic() - started, 1)
     (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_plain))
     (out_dir / "report.md").write_text(markdown(report, nominal_rolling, nominal_e))
