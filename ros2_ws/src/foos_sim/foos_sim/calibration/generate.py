@@ -350,6 +350,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if not (args.duration > 0 and args.fps > 0 and args.noise >= 0 and 0 <= args.dropout < 1):
             raise ValueError("need duration > 0, fps > 0, noise >= 0 and 0 <= dropout < 1")
+        if Path(args.bag).exists():
+            raise ValueError(f"{args.bag} exists already; choose another name or delete it")
         effects = list(args.effect)
         if args.random:
             rng = np.random.default_rng(args.seed + 1_000_003)
