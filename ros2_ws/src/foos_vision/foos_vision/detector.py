@@ -36,7 +36,7 @@ class ColourModel:
 PROTOTYPES = {
     "white": ColourModel("white", 150, 255, 128, 130, 14),
     "yellow": ColourModel("yellow", 90, 255, 122, 192, 26),
-    "orange": ColourModel("orange", 70, 255, 160, 182, 24),
+    "orange": ColourModel("orange", 70, 255, 165, 192, 18),
     "red": ColourModel("red", 50, 230, 185, 165, 24),
 }
 

@@ -16,6 +16,7 @@ from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 from .velocity import ConstantVelocityKalman, KalmanState
 
 BALL_RADIUS = 0.0175
+FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
 # pockets behind the mouths are roofed, so a camera above never sees a ball there, only the roof.
 FIELD_HALF_X, FIELD_HALF_Y, GOAL_HALF_X, GOAL_DEPTH = 0.34, 0.60, 0.10, 0.025
@@ -78,6 +79,7 @@ class BallTracker:
         self._learn_pixels: list[np.ndarray] = []
         self._learned = False
         self._last_t: Optional[float] = None
+        self._fixtures: dict[tuple[int, int], int] = {}
 
     # --- tags -------------------------------------------------------------------------------------
     def _refit(self, bgr: np.ndarray) -> None:
@@ -182,13 +184,18 @@ class BallTracker:
                 return found
         candidates, lab, _ = self.detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius,
                                                       self._region)
-        good = [c for c in candidates if self._confident(c)]
-        if predicted is not None:
-            # Still tracking but outside the window (a hard hit): accept a confident candidate only.
-            pass
+        good = [c for c in candidates if self._confident(c) and not self._fixture(c)]
         if not good:
             return None, lab, self._roi
         return max(good, key=lambda c: c.score), lab, self._roi
+
+    def _fixture(self, c: Candidate) -> bool:
+        """A ball-like blob that sits at the same pixel frame after frame, while no ball is tracked, is part of
+        the table (a screw head, a sticker, a lamp's reflection), not the ball."""
+        cell = (int(c.u // 3), int(c.v // 3))
+        count = self._fixtures.get(cell, 0) + 1
+        self._fixtures[cell] = count
+        return count > FIXTURE_FRAMES
 
     def _search_near(self, bgr: np.ndarray, state: KalmanState):
         ppm = self.mapping.pixels_per_metre(state.x[:2])
