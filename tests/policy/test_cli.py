@@ -19,7 +19,7 @@ def trained(tmp_path_factory, ros_env):
 
     out = tmp_path_factory.mktemp("train")
     proc = subprocess.run(
-        ["ros2", "run", "foos_policy", "train", "--algo", "sac", "--steps", "400", "--learning-starts", "150",
+        ["ros2", "run", "foos_policy", "train", "--algo", "sac", "--steps", "300", "--learning-starts", "100",
          "--reset", "hardened", "--opponent", "scripted", "--seed", "3", "--out", str(out), "--checkpoint-every", "200"],
         capture_output=True, text=True, timeout=240, env=ros_env,
     )
@@ -34,7 +34,7 @@ def test_train_writes_model_metrics_figures_checkpoints_and_tensorboard(trained)
     assert (out / f"{name}.zip").is_file()
     with open(out / "metrics.csv") as f:
         rows = list(csv.DictReader(f))
-    assert rows, "no finished episode in 400 steps"
+    assert rows, "no finished episode in 300 steps"
     assert tuple(rows[0]) == COLUMNS
     returns = np.array([float(r["return"]) for r in rows])
     # the paper's smoothing: Return50 is the running mean of the last (up to) 50 returns
@@ -45,7 +45,7 @@ def test_train_writes_model_metrics_figures_checkpoints_and_tensorboard(trained)
     assert list((out / "checkpoints").glob("*.zip"))
     assert list((out / "tb").rglob("events.out.tfevents.*"))
     run = json.loads((out / "run.json").read_text())
-    assert run["steps_done"] == 400 and run["algo"] == "sac"
+    assert run["steps_done"] == 300 and run["algo"] == "sac"
     assert "it/s" in proc.stderr or "step" in proc.stderr  # the progress bar
 
 
@@ -55,14 +55,14 @@ def test_evaluate_writes_a_summary_with_confidence_intervals(trained, run_cli, t
     for policy in (str(out / "sac_hardened_scripted_s3.zip"), "zero"):
         target = tmp_path / "eval.json"
         proc = run_cli("evaluate", "--policy", policy, "--reset", "hardened", "--opponent", "scripted",
-                       "--episodes", "4", "--seed", "1", "--out", str(target), "--no-progress")
+                       "--episodes", "3", "--seed", "1", "--out", str(target), "--no-progress")
         assert proc.returncode == 0, proc.stderr
         summary = json.loads(target.read_text())
         for key in ("win_rate", "own_goal_rate", "mean_length", "touches", "goals_after_touch", "no_touch_goal_share"):
             assert key in summary
         lo, hi = summary["win_rate_ci95"]
         assert 0.0 <= lo <= summary["win_rate"] <= hi <= 1.0
-        assert summary["episodes"] == 4
+        assert summary["episodes"] == 3
 
 
 @pytest.mark.timeout(180)
@@ -70,7 +70,7 @@ def test_self_play_against_a_frozen_policy(trained, run_cli, tmp_path):
     out, _ = trained
     frozen = str(out / "sac_hardened_scripted_s3.zip")
     proc = run_cli("evaluate", "--policy", frozen, "--reset", "hardened", "--opponent", "selfplay", "--opponent-policy", frozen,
-                   "--episodes", "2", "--out", str(tmp_path / "selfplay.json"), "--no-progress")
+                   "--episodes", "1", "--out", str(tmp_path / "selfplay.json"), "--no-progress")
     assert proc.returncode == 0, proc.stderr
     assert json.loads((tmp_path / "selfplay.json").read_text())["opponent"] == "selfplay"
 

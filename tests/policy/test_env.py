@@ -96,7 +96,7 @@ def test_resets_draw_the_documented_distributions(env):
 def test_hardened_reset_needs_a_touch_to_score():
     env = FoosballEnv("hardened", "none")
     wins = 0
-    for seed in range(8):
+    for seed in range(5):
         env.reset(seed=seed)
         while True:
             _, _, terminated, truncated, info = env.step(np.zeros(8))
