@@ -151,3 +151,12 @@ def test_vectorised_training_env_steps():
     for _ in range(5):
         obs, rewards, dones, infos = vec.step(np.zeros((2, 8), np.float32))
     assert rewards.shape == (2,) and np.all(np.isfinite(rewards))
+
+
+def test_lifted_opponent_starts_with_every_away_rod_horizontal():
+    env = FoosballEnv("paper", "lifted")
+    env.reset(seed=0)
+    q = env.sim.joint_positions()
+    for i, name in enumerate(JOINT_NAMES):
+        expected = -np.pi / 2 if name.startswith("away_") and name.endswith("_rotate") else 0.0
+        assert q[i] == pytest.approx(expected), name
