@@ -16,6 +16,7 @@ from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 from .velocity import ConstantVelocityKalman, KalmanState
 
 BALL_RADIUS = 0.0175
+RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
 # pockets behind the mouths are roofed, so a camera above never sees a ball there, only the roof.
@@ -80,6 +81,10 @@ class BallTracker:
         self._learned = False
         self._last_t: Optional[float] = None
         self._fixtures: dict[tuple[int, int], int] = {}
+        self._radius_grid = np.ones((1, 1))
+        self._search_scale = 1.0
+        self._region_small: Optional[np.ndarray] = None
+        self._field_lab: Optional[np.ndarray] = None
 
     # --- tags -------------------------------------------------------------------------------------
     def _refit(self, bgr: np.ndarray) -> None:
@@ -120,20 +125,43 @@ class BallTracker:
         region = np.zeros((height, width), np.uint8)
         cv2.fillPoly(region, [np.round(pixels).astype(np.int32)], 255)
         self._region = region
+        self._make_radius_grid(width, height)
         ys, xs = np.nonzero(region)
         if len(xs) == 0:
             raise MarkersError("the field lies outside the image according to the tags: check the markers file")
         self._roi = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
         radii = [self._radius_at_table(p) for p in ((-0.34, -0.6), (0.34, -0.6), (0.34, 0.6), (-0.34, 0.6), (0, 0))]
         self._min_radius = max(1.5, min(radii))
+        # Search the whole field at half resolution when even the smallest ball keeps 2.5 px of radius there.
+        self._search_scale = 0.5 if self._min_radius >= 5.0 else 1.0
+        if self._search_scale != 1.0:
+            x0, y0, x1, y1 = self._roi
+            self._region_small = cv2.resize(region[y0:y1, x0:x1], None, fx=0.5, fy=0.5, interpolation=cv2.INTER_NEAREST)
 
     # --- geometry helpers -------------------------------------------------------------------------
     def _radius_at_table(self, xy) -> float:
         return BALL_RADIUS * self.mapping.pixels_per_metre(np.asarray(xy, float))
 
     def _radius_at_pixel(self, u: float, v: float) -> float:
-        xy = self.mapping.to_table(self.lens.undistort(np.array([[u, v]])))[0]
-        return self._radius_at_table(xy)
+        """Expected ball radius in pixels, looked up on a grid made once per homography (it varies slowly)."""
+        h, w = self._radius_grid.shape
+        i = min(h - 1, max(0, int(v / RADIUS_GRID)))
+        j = min(w - 1, max(0, int(u / RADIUS_GRID)))
+        return float(self._radius_grid[i, j])
+
+    def _make_radius_grid(self, width: int, height: int) -> None:
+        us = (np.arange(0, width, RADIUS_GRID) + RADIUS_GRID / 2).clip(0, width - 1)
+        vs = (np.arange(0, height, RADIUS_GRID) + RADIUS_GRID / 2).clip(0, height - 1)
+        grid = np.stack(np.meshgrid(us, vs), axis=-1).reshape(-1, 2)
+        xy = self.mapping.to_table(self.lens.undistort(grid))
+        # Local scale of the table->image map (through the lens) by finite differences on the ball plane.
+        d = 2e-3
+        p0 = self.lens.distort(self.mapping.to_image(xy))
+        px = self.lens.distort(self.mapping.to_image(xy + (d, 0)))
+        py = self.lens.distort(self.mapping.to_image(xy + (0, d)))
+        jx, jy = (px - p0) / d, (py - p0) / d
+        scale = np.sqrt(np.abs(jx[:, 0] * jy[:, 1] - jx[:, 1] * jy[:, 0]))
+        self._radius_grid = (BALL_RADIUS * scale).reshape(len(vs), len(us))
 
     def pixel_to_table(self, u: float, v: float) -> np.ndarray:
         return self.mapping.to_table(self.lens.undistort(np.array([[u, v]])))[0]
@@ -182,12 +210,47 @@ class BallTracker:
             found = self._search_near(bgr, predicted)
             if found[0] is not None:
                 return found
-        candidates, lab, _ = self.detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius,
-                                                      self._region)
-        good = [c for c in candidates if self._confident(c) and not self._fixture(c)]
+        good = [c for c in self._search_field(bgr) if self._confident(c) and not self._fixture(c)]
         if not good:
-            return None, lab, self._roi
-        return max(good, key=lambda c: c.score), lab, self._roi
+            return None, None, None
+        best = max(good, key=lambda c: c.score)
+        if self._search_scale == 1.0:
+            return best, self._field_lab, self._roi
+        # Found at half resolution: the centre comes from the full-resolution pixels around it.
+        radius = self._radius_at_pixel(best.u, best.v)
+        return self._search_window(bgr, np.array([best.u, best.v]), 2 * radius + 3, 2 * radius + 3)
+
+    def _search_field(self, bgr: np.ndarray) -> list[Candidate]:
+        """Candidates anywhere on the field; at half resolution when the ball is big enough (4x cheaper)."""
+        s = self._search_scale
+        if s == 1.0:
+            candidates, self._field_lab, _ = self.detector.candidates(bgr, self._roi, self._radius_at_pixel,
+                                                                      self._min_radius, self._region)
+            return candidates
+        x0, y0, x1, y1 = self._roi
+        small = cv2.resize(bgr[y0:y1, x0:x1], None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+        h, w = small.shape[:2]
+        region = self._region_small
+        candidates, _, _ = self.detector.candidates(
+            small, (0, 0, w, h), lambda u, v: s * self._radius_at_pixel(x0 + (u + 0.5) / s - 0.5, y0 + (v + 0.5) / s - 0.5),
+            s * self._min_radius, region)
+        for c in candidates:
+            c.u, c.v = x0 + (c.u + 0.5) / s - 0.5, y0 + (c.v + 0.5) / s - 0.5
+        return candidates
+
+    def _search_window(self, bgr: np.ndarray, centre: np.ndarray, gate: float, half: float):
+        h, w = bgr.shape[:2]
+        x0, y0 = max(0, int(centre[0] - half)), max(0, int(centre[1] - half))
+        x1, y1 = min(w, int(centre[0] + half) + 1), min(h, int(centre[1] + half) + 1)
+        if x1 - x0 < 3 or y1 - y0 < 3:
+            return None, None, None
+        roi = (x0, y0, x1, y1)
+        candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._region)
+        near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate and c.score > 0.2]
+        if not near:
+            return None, lab, roi
+        best = min(near, key=lambda c: math.hypot(c.u - centre[0], c.v - centre[1]) / gate - c.score)
+        return best, lab, roi
 
     def _fixture(self, c: Candidate) -> bool:
         """A ball-like blob that sits at the same pixel frame after frame, while no ball is tracked, is part of
@@ -202,20 +265,7 @@ class BallTracker:
         radius = BALL_RADIUS * ppm
         sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
         gate = 4.0 * sigma + 1.5 * radius + 2.0
-        centre = self.table_to_pixel(state.x[:2])
-        half = gate + 2 * radius + 2
-        h, w = bgr.shape[:2]
-        x0, y0 = max(0, int(centre[0] - half)), max(0, int(centre[1] - half))
-        x1, y1 = min(w, int(centre[0] + half) + 1), min(h, int(centre[1] + half) + 1)
-        if x1 - x0 < 3 or y1 - y0 < 3:
-            return None, None, None
-        roi = (x0, y0, x1, y1)
-        candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._region)
-        near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate and c.score > 0.2]
-        if not near:
-            return None, lab, roi
-        best = min(near, key=lambda c: math.hypot(c.u - centre[0], c.v - centre[1]) / gate - c.score)
-        return best, lab, roi
+        return self._search_window(bgr, self.table_to_pixel(state.x[:2]), gate, gate + 2 * radius + 2)
 
     # --- colour -------------------------------------------------------------------------------------
     def _vote_colour(self, bgr: np.ndarray) -> None:
