@@ -38,6 +38,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("bag", help="rosbag2 directory (MCAP or sqlite3) with /ball/detection")
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (created; files in it are replaced)")
+    parser.add_argument("--base", metavar="PARAMS", help="parameter file of the table to start from "
+                        "(default: the regulation table); e.g. a calibrated file, to check it explains new data")
     parser.add_argument("--topic", default="/ball/detection", help="detection topic (default /ball/detection)")
     parser.add_argument("--max-starts", type=int, default=60, help="held-out prediction starts to evaluate (default 60)")
     parser.add_argument("--seed", type=int, default=0, help="seed for start sampling and bootstrap (default 0)")
@@ -67,7 +69,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         progress(f"reading {args.topic} from {bag}")
         detections = read_ball_detections(bag, args.topic)
         report = calibrate(detections.t, detections.position, detections.frame_id, Path(args.out),
-                           Options(args.max_starts, args.seed, not args.no_figures), progress, str(bag))
+                           Options(args.max_starts, args.seed, not args.no_figures, base=args.base), progress, str(bag))
     except (BagError, DataError, ParamsError) as error:
         return fail(str(error).splitlines()[0])
     except OSError as error:

@@ -2,10 +2,10 @@
 
 The hidden effects are injected by a mechanism different from the one calibration fits, so that a
 found effect is evidence, not the code agreeing with itself:
-- continuous effects (tilt, rolling resistance, viscous damping, air drag, dent) are forces applied
-  at the ball centre through `data.xfrc_applied` of the NOMINAL MuJoCo model, from a Python stepping
-  loop. A central force F slows a rolling ball at F / (7/5 m), so each force is 7/5 m times the
-  contract's deceleration; a slope s (or a dent's local gradient) is a force m g s;
+- continuous effects (tilt, rolling resistance, viscous damping, air drag, dent) are forces and
+  torques applied to the ball through `data.xfrc_applied` of the NOMINAL MuJoCo model, from a Python
+  stepping loop. A central force F slows a rolling ball at F / (7/5 m); a slope s (or a dent's local
+  gradient) is a force m g s; rolling resistance is a torque against the spin (see `_wrench`);
 - wall restitution is a change of the normal velocity when a nominal wall contact ends.
 The calibration only ever sees the bag (noisy, 120 fps, with dropouts), never the hidden list.
 """
@@ -122,24 +122,36 @@ class HiddenTable:
         self._wall_normal = None
         mujoco.mj_forward(self.model, self.data)
 
-    def _force(self) -> np.ndarray:
-        h, m = self.hidden, self.mass
+    def _wrench(self) -> np.ndarray:
+        """Force and torque (world frame) of the hidden effects on the ball.
+
+        Each acts the way its physical cause acts, so sliding after a bounce is right too:
+        slope, dent and air drag pull at the centre; rolling resistance is a torque against the
+        spin (as a deformed cloth resists the rolling); Stokes damping is a force on the centre and
+        a torque on the spin in Stokes' 6:8 proportion. For a rolling ball each gives the contract's
+        deceleration, e.g. a torque T slows it at T / (7/5 m r).
+        """
+        h, m, r = self.hidden, self.mass, self.radius
         v = self.data.qvel[:2]
         speed = math.hypot(v[0], v[1])
-        force = np.zeros(2)
-        force += m * self.g * np.asarray(h.slope)
+        force = np.zeros(3)
+        torque = np.zeros(3)
+        force[:2] += m * self.g * np.asarray(h.slope)
         if h.dents:
             gx, gy = dent_gradient(h.dents, np.array([self.data.qpos[0]]), np.array([self.data.qpos[1]]))
-            force -= m * self.g * np.array([gx[0], gy[0]])
-        meff = ROLLING_MASS_FACTOR * m
-        if h.rolling_deceleration is not None and speed > 1e-6:
+            force[:2] -= m * self.g * np.array([gx[0], gy[0]])
+        omega = np.zeros(3)
+        mujoco.mju_rotVecQuat(omega, self.data.qvel[3:6], self.data.qpos[3:7])  # free joint spin is local
+        spin = math.hypot(omega[0], omega[1])
+        if h.rolling_deceleration is not None and spin > 1e-6:
             # Only the difference to the model's own rolling friction; faded out near rest so a
             # weaker table does not push a resting ball.
-            fade = min(1.0, speed / 0.02)
-            force -= meff * (h.rolling_deceleration - self.nominal_rolling) * fade * v / speed
-        force -= meff * h.viscous_rate * v
-        force -= meff * h.drag_coefficient * speed * v
-        return force
+            fade = min(1.0, spin * r / 0.02)
+            torque[:2] -= ROLLING_MASS_FACTOR * m * r * (h.rolling_deceleration - self.nominal_rolling) * fade * omega[:2] / spin
+        force[:2] -= 0.6 * m * h.viscous_rate * v
+        torque[:2] -= 0.8 * m * r * r * h.viscous_rate * omega[:2]
+        force[:2] -= ROLLING_MASS_FACTOR * m * h.drag_coefficient * speed * v
+        return np.concatenate([force, torque])
 
     def _wall_contact_normal(self) -> np.ndarray | None:
         for i in range(self.data.ncon):
@@ -155,7 +167,7 @@ class HiddenTable:
 
     def step_block(self) -> None:
         """CONTROL_STEPS physics steps with the hidden forces (single steps near a wall)."""
-        self.data.xfrc_applied[self.ball_body, :2] = self._force()
+        self.data.xfrc_applied[self.ball_body] = self._wrench()
         if self.hidden.restitution is None or not self.near_wall():
             mujoco.mj_step(self.model, self.data, nstep=CONTROL_STEPS)
             return

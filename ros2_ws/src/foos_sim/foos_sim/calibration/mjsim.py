@@ -39,6 +39,37 @@ def effects_list(names: Sequence[str], theta: np.ndarray, restitution: float | N
     return out
 
 
+def theta_of(params: dict) -> np.ndarray:
+    """The surrogate's parameter vector of a table (its effects on top of its rolling resistance)."""
+    from . import surrogate
+
+    theta = surrogate.nominal_theta(float(params["ball"]["rolling_deceleration"]))
+    for effect in params.get("effects", []) or []:
+        name, p = effect.get("name"), effect.get("params", {})
+        if name == "table_tilt":
+            theta[0:2] = (p["slope_x"], p["slope_y"])
+        elif name == "rolling_resistance":
+            theta[2] = p["deceleration"]
+        elif name == "viscous_damping":
+            theta[3] = p["rate"]
+        elif name == "air_drag":
+            theta[4] = p["coefficient"]
+        elif name == "surface_dent" and not theta[8]:
+            theta[5:9] = (p["x"], p["y"], p["radius"], p["depth"])
+    return theta
+
+
+def restitution_of(params: dict) -> float:
+    for effect in params.get("effects", []) or []:
+        if effect.get("name") == "wall_restitution" and effect.get("params", {}).get("wall", "*") == "*":
+            return float(effect["params"]["coefficient"])
+    return float(params["walls"]["restitution"])
+
+
+def base_effect_names(params: dict) -> list[str]:
+    return [e["name"] for e in params.get("effects", []) or [] if e.get("name") != "wall_restitution"]
+
+
 def params_with(effects: list[dict], base: dict | None = None) -> dict:
     tree = copy.deepcopy(base if base is not None else load_params())
     tree["effects"] = copy.deepcopy(effects)

@@ -14,7 +14,7 @@ import yaml
 from . import figures, surrogate
 from .bounces import fit_restitution, fold_restitution
 from .evaluate import HORIZONS, choose_starts, predict, summary
-from .mjsim import effects_list, params_with
+from .mjsim import base_effect_names, effects_list, params_with, restitution_of, theta_of
 from .select import select_effects
 from .tracks import DataError, Field, analyse, validate
 from ..table_params import load_params
@@ -28,6 +28,7 @@ class Options:
     max_starts: int = 60
     seed: int = 0
     figures: bool = True
+    base: str | None = None  # parameter file of the table to start from (None: the regulation table)
     # Benchmarks only: (surrogate theta of the true table, predictor(states (n,4), horizons) -> (n, H, 2)),
     # to report the error of the true generating model from the same starts (the floor).
     floor: tuple | None = None
@@ -64,9 +65,11 @@ def describe(effect: dict, nominal_rolling: float, nominal_restitution: float) -
 def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path, options: Options = Options(),
               progress: Callable[[str], None] = lambda message: None, bag: str = "") -> dict:
     started = time.monotonic()
-    params = load_params()
-    nominal_rolling = float(params["ball"]["rolling_deceleration"])
-    nominal_e = float(params["walls"]["restitution"])
+    params = load_params(options.base)
+    theta_base = theta_of(params)
+    nominal_rolling = float(theta_base[2])
+    nominal_e = restitution_of(params)
+    kept = base_effect_names(params)  # effects the base table already has
     field = Field.from_params(params)
     t, xy = validate(t, position, frame_id)
     progress("finding tracks, wall contacts and rolling segments")
@@ -74,29 +77,34 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
     if len(measured.segments) < MIN_SEGMENTS:
         raise DataError(f"too little rolling data: {len(measured.segments)} rolling segments of at least 0.25 s "
                         f"(need {MIN_SEGMENTS}); record more rolls")
-    selection = select_effects(measured.segments, measured.noise, nominal_rolling, progress)
-    rolling_effects = effects_list(selection.effects, selection.fit.theta)
+    selection = select_effects(measured.segments, measured.noise, theta_base, progress)
+    modelled = list(dict.fromkeys(kept + selection.effects))  # base effects, refitted or kept, and new ones
+    rolling_effects = effects_list(modelled, selection.fit.theta)
     progress("fitting wall restitution on MuJoCo replays of the bounces")
     restitution = fit_restitution(measured, selection.fit, params_with(rolling_effects, params), nominal_e, measured.noise)
-    effects = effects_list(selection.effects, selection.fit.theta, restitution.coefficient)
+    effects = effects_list(selection.effects, selection.fit.theta, restitution.coefficient)  # what changed
+    base_e = None if nominal_e == float(params["walls"]["restitution"]) else nominal_e
+    table_effects = effects_list(modelled, selection.fit.theta,
+                                 restitution.coefficient if restitution.coefficient is not None else base_e)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     params_file = out_dir / PARAMS_FILE_NAME
     header = ("# Calibrated table written by `ros2 run foos_sim calibrate`: the regulation table plus the effects the\n"
               f"# measured data supports ({bag or 'detections'}). Load with foos_sim.load_model(this file) or\n"
               "# `ros2 run foos_sim sim_node --ros-args -p params_file:=<this file>`.\n")
-    params_file.write_text(header + yaml.safe_dump({"base": "regulation_table", "effects": effects}, sort_keys=False))
+    base_ref = str(Path(options.base).resolve()) if options.base else "regulation_table"
+    params_file.write_text(header + yaml.safe_dump({"base": base_ref, "effects": table_effects}, sort_keys=False))
     load_params(params_file)  # the file must be loadable; raises if not
 
     progress("measuring the gain on held-out starts (MuJoCo rollouts)")
     starts = choose_starts(measured, options.max_starts, options.seed)
-    theta_nominal = surrogate.nominal_theta(nominal_rolling)
+    theta_nominal = theta_base
     models = {"nominal": ([params], [theta_nominal] * len(starts), [0] * len(starts))}
     if effects:
         trees, thetas, index = [], [], []
         for k in (0, 1):
-            e_k = fold_restitution(restitution, k, nominal_e) if restitution.coefficient is not None else None
-            trees.append(params_with(effects_list(selection.effects, selection.fold_theta[k], e_k), params))
+            e_k = fold_restitution(restitution, k, nominal_e) if restitution.coefficient is not None else base_e
+            trees.append(params_with(effects_list(modelled, selection.fold_theta[k], e_k), params))
         for s in starts:
             other = 1 - s.track % 2  # the fold this start's track was not fitted on
             thetas.append(selection.fold_theta[other])

@@ -24,7 +24,7 @@ MIN_EVIDENCE = 30.0  # held-out squared-error drop, in noise variances, to name 
 MIN_FOLD_EVIDENCE = 3.0  # and each fold on its own must improve by this much
 
 
-def material(name: str, theta: np.ndarray, nominal_rolling: float) -> bool:
+def material(name: str, theta: np.ndarray, base: np.ndarray) -> bool:
     """Whether a fitted effect is big enough to matter (and beyond what the fit's own model gaps give).
 
     The floors sit below the smallest effects worth reporting (slope 0.002, rolling resistance off by
@@ -32,15 +32,16 @@ def material(name: str, theta: np.ndarray, nominal_rolling: float) -> bool:
     spinning about the vertical after a wall bounce rolls with up to 5 % less resistance in MuJoCo.
     """
     if name == "table_tilt":
-        return float(np.hypot(theta[0], theta[1])) >= 0.001
+        return float(np.hypot(theta[0] - base[0], theta[1] - base[1])) >= 0.001
     if name == "rolling_resistance":
-        return abs(theta[2] - nominal_rolling) >= 0.12 * nominal_rolling
+        return abs(theta[2] - base[2]) >= 0.12 * base[2]
     if name == "viscous_damping":
-        return theta[3] >= 0.02
+        return abs(theta[3] - base[3]) >= 0.02
     if name == "air_drag":
-        return theta[4] >= 0.008
+        return abs(theta[4] - base[4]) >= 0.008
     if name == "surface_dent":
-        return abs(theta[8]) >= 0.0005
+        moved = np.hypot(theta[5] - base[5], theta[6] - base[6]) >= 0.03 if base[8] else True
+        return abs(theta[8] - base[8]) >= 0.0005 or (moved and abs(theta[8]) >= 0.0005)
     return True
 
 
@@ -85,11 +86,11 @@ class HeldOut:
         return rss, thetas
 
 
-def select_effects(segments: list[Segment], noise: float, nominal_rolling: float,
+def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
                    progress: Callable[[str], None] = lambda message: None) -> Selection:
+    """Effects (changes to the base table theta0) the held-out evidence supports."""
     batch = SegmentBatch(segments)
     sigma2 = noise**2
-    theta0 = surrogate.nominal_theta(nominal_rolling)
     progress("fitting the nominal model's segment states")
     current = fit_states(batch, theta0)
     chosen: list[str] = []
@@ -116,10 +117,11 @@ def select_effects(segments: list[Segment], noise: float, nominal_rolling: float
                 break
             progress(f"fitting {' + '.join(chosen + [name])}")
             start = current.theta.copy()
-            if name == "surface_dent":
+            if name == "surface_dent" and not theta0[8]:
                 start[5:9] = dent_start
             if name in ("viscous_damping", "air_drag"):
-                start[surrogate.EFFECT_PARAMS[name][0]] = 1e-3
+                j = surrogate.EFFECT_PARAMS[name][0]
+                start[j] = max(start[j], 1e-3)
             candidate = fit(batch, free_indices(chosen + [name]), start, current.states)
             progress(f"held-out check of {name}")
             rss, thetas = held.score(tuple(chosen + [name]), candidate.theta)
@@ -129,7 +131,7 @@ def select_effects(segments: list[Segment], noise: float, nominal_rolling: float
                 "per_fold": [round(float(d), 1) for d in fold_drops],
                 "in_sample_error_drop_noise_variances": round(float((current.rss - candidate.rss) / sigma2), 1),
             }
-            info["material"] = bool(material(name, candidate.theta, nominal_rolling))
+            info["material"] = bool(material(name, candidate.theta, theta0))
             if sum(fold_drops) >= MIN_EVIDENCE and min(fold_drops) >= MIN_FOLD_EVIDENCE and info["material"]:
                 chosen.append(name)
                 evidence[name] = info
