@@ -41,7 +41,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--base", metavar="PARAMS", help="parameter file of the table to start from "
                         "(default: the regulation table); e.g. a calibrated file, to check it explains new data")
     parser.add_argument("--topic", default="/ball/detection", help="detection topic (default /ball/detection)")
-    parser.add_argument("--max-starts", type=int, default=60, help="held-out prediction starts to evaluate (default 60)")
+    parser.add_argument("--max-starts", type=int, default=40, help="held-out prediction starts to evaluate (default 40)")
     parser.add_argument("--seed", type=int, default=0, help="seed for start sampling and bootstrap (default 0)")
     parser.add_argument("--no-figures", action="store_true", help="skip the figures")
     parser.add_argument("--quiet", action="store_true", help="no progress messages")
@@ -66,7 +66,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     progress = (lambda message: None) if args.quiet else (lambda message: print(f"[calibrate] {message}", file=sys.stderr, flush=True))
     try:
-        progress(f"reading {args.topic} from {bag}")
         detections = read_ball_detections(bag, args.topic)
         report = calibrate(detections.t, detections.position, detections.frame_id, Path(args.out),
                            Options(args.max_starts, args.seed, not args.no_figures, base=args.base), progress, str(bag))

@@ -25,7 +25,7 @@ MIN_SEGMENTS = 6
 
 @dataclass
 class Options:
-    max_starts: int = 60
+    max_starts: int = 40
     seed: int = 0
     figures: bool = True
     base: str | None = None  # parameter file of the table to start from (None: the regulation table)
