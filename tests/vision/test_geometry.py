@@ -14,7 +14,7 @@ from foos_vision.velocity import ConstantVelocityKalman, central_differences
 
 
 def layout_at(z, heights=None):
-    positions = {0: (-0.5, -0.7), 1: (0.5, -0.7), 2: (0.5, 0.7), 3: (-0.5, 0.7), 4: (-0.5, 0.0), 5: (0.5, 0.0)}
+    positions = {0: (-0.6, -0.7), 1: (0.6, -0.7), 2: (0.6, 0.7), 3: (-0.6, 0.7), 4: (-0.6, 0.0), 5: (0.6, 0.0)}
     zs = heights or {i: z for i in positions}
     return MarkerLayout("DICT_4X4_50", 0.06, {i: np.array([x, y, zs[i]]) for i, (x, y) in positions.items()})
 

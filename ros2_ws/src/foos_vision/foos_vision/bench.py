@@ -24,8 +24,7 @@ import numpy as np
 
 AIRBORNE_Z = 0.0225  # m: ball centre more than 5 mm above its resting height
 TARGETS = {"median_mm": 2.0, "p95_mm": 5.0, "recall": 0.98, "false_per_1000": 1.0}
-THROUGHPUT_AIRBORNE_Z = 0.0225  # m: ball centre more than 5 mm above its resting height
-TARGETS = {(640, 480): 200.0, (1280, 720): 60.0}
+THROUGHPUT_TARGETS = {(640, 480): 200.0, (1280, 720): 60.0}
 
 
 @dataclass(frozen=True)

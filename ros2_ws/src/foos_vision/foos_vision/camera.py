@@ -24,7 +24,7 @@ class CameraConfig:
     width: int = 640
     height: int = 480
     fps: float = 120.0
-    position: tuple[float, float, float] = (0.0, 0.0, 1.75)
+    position: tuple[float, float, float] = (0.0, 0.0, 1.9)
     look_at: tuple[float, float, float] = (0.0, 0.0, 0.0)
     up: tuple[float, float, float] = (-1.0, 0.0, 0.0)
     fovy: float = 45.0
