@@ -36,7 +36,7 @@ class ColourModel:
 PROTOTYPES = {
     "white": ColourModel("white", 150, 255, 128, 130, 14),
     "yellow": ColourModel("yellow", 90, 255, 122, 192, 26),
-    "orange": ColourModel("orange", 70, 255, 165, 192, 18),
+    "orange": ColourModel("orange", 60, 255, 160, 185, 22),
     "red": ColourModel("red", 50, 230, 185, 165, 24),
 }
 
@@ -141,7 +141,7 @@ class BallDetector:
         self.model = model
 
     def candidates(self, bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Callable[[float, float], float],
-                   min_radius: float, region_mask: Optional[np.ndarray] = None
+                   min_radius: float, region_mask: Optional[np.ndarray] = None, bridge_px: int = 0
                    ) -> tuple[list[Candidate], np.ndarray, np.ndarray]:
         """Candidates inside roi = (x0, y0, x1, y1); radius_at(u, v) is the expected ball radius in pixels
         at a full-frame pixel. Also returns the roi's Lab image and colour mask."""
@@ -150,7 +150,13 @@ class BallDetector:
         mask = self.model.mask(lab)
         if region_mask is not None:
             mask &= region_mask[y0:y1, x0:x1]
-        n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        grouping = mask
+        if bridge_px > 0:
+            # A rod across the ball cuts it in two crescents: group pixels across such a thin gap, but
+            # measure the centre on the ball's own pixels only.
+            kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * bridge_px + 1, 2 * bridge_px + 1))
+            grouping = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel)
+        n, labels, stats, centroids = cv2.connectedComponentsWithStats(grouping, connectivity=8)
         found: list[Candidate] = []
         for i in range(1, n):
             area = stats[i, cv2.CC_STAT_AREA]
@@ -163,6 +169,11 @@ class BallDetector:
             pad = int(2 * radius_px) + 2
             wx0, wy0 = max(0, bx - pad), max(0, by - pad)
             local = (labels[wy0:by + bh + pad, wx0:bx + bw + pad] == i).astype(np.uint8)
+            if bridge_px > 0:
+                local &= (mask[wy0:by + bh + pad, wx0:bx + bw + pad] > 0).astype(np.uint8)
+                area = int(local.sum())
+                if area < 3:
+                    continue
             u, v = centroids[i][0] - wx0, centroids[i][1] - wy0
             if area > 1.8 * expected or max(bw, bh) > 3.2 * radius_px:
                 # Merged with something of the same colour (a rod, a line, a hand): the ball is where the

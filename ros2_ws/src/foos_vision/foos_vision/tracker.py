@@ -159,8 +159,10 @@ class BallTracker:
         p0 = self.lens.distort(self.mapping.to_image(xy))
         px = self.lens.distort(self.mapping.to_image(xy + (d, 0)))
         py = self.lens.distort(self.mapping.to_image(xy + (0, d)))
-        jx, jy = (px - p0) / d, (py - p0) / d
-        scale = np.sqrt(np.abs(jx[:, 0] * jy[:, 1] - jx[:, 1] * jy[:, 0]))
+        jac = np.stack([(px - p0) / d, (py - p0) / d], axis=2)  # (N, 2, 2)
+        # A sphere's outline is not foreshortened the way the plane is: its radius follows the plane's
+        # larger scale (across the line of sight), not the mean of the two.
+        scale = np.linalg.svd(jac, compute_uv=False)[:, 0]
         self._radius_grid = (BALL_RADIUS * scale).reshape(len(vs), len(us))
 
     def pixel_to_table(self, u: float, v: float) -> np.ndarray:
