@@ -16,6 +16,8 @@ from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 from .velocity import ConstantVelocityKalman, KalmanState
 
 BALL_RADIUS = 0.0175
+WEAK_TRACK_LIMIT = 0.15  # s: longest a track may live on partly hidden blobs alone
+MAX_GATE = 0.12  # m: the farthest a track may jump between two frames
 RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
@@ -81,6 +83,7 @@ class BallTracker:
         self._learned = False
         self._last_t: Optional[float] = None
         self._fixtures: dict[tuple[int, int], int] = {}
+        self._weak_since: Optional[float] = None
         self._radius_grid = np.ones((1, 1))
         self._search_scale = 1.0
         self._region_small: Optional[np.ndarray] = None
@@ -210,8 +213,23 @@ class BallTracker:
         predicted = self.kalman.predict(t)
         if predicted is not None:
             found = self._search_near(bgr, predicted)
-            if found[0] is not None:
+            if found[0] is not None and self._confident(found[0]):
+                self._weak_since = None
                 return found
+            if found[0] is not None:
+                # Only part of a ball where one is expected: good for a while (a rod or a foot across it),
+                # but a track made of parts alone ends after WEAK_TRACK_LIMIT: it may be a figure of the
+                # ball's colour, next to where the ball was picked up.
+                self._weak_since = t if self._weak_since is None else self._weak_since
+                if t - self._weak_since <= WEAK_TRACK_LIMIT:
+                    return found
+                return None, None, None
+        found = self._best_on_field(bgr)
+        if found[0] is not None:
+            self._weak_since = None
+        return found
+
+    def _best_on_field(self, bgr: np.ndarray):
         good = [c for c in self._search_field(bgr) if self._confident(c) and not self._fixture(c)]
         if not good:
             return None, None, None
@@ -220,7 +238,10 @@ class BallTracker:
             return best, self._field_lab, self._roi
         # Found at half resolution: the centre comes from the full-resolution pixels around it.
         radius = self._radius_at_pixel(best.u, best.v)
-        return self._search_window(bgr, np.array([best.u, best.v]), 2 * radius + 3, 2 * radius + 3)
+        found = self._search_window(bgr, np.array([best.u, best.v]), 2 * radius + 3, 2 * radius + 3)
+        if found[0] is None or not self._confident(found[0]):
+            return None, None, None
+        return found
 
     def _search_field(self, bgr: np.ndarray) -> list[Candidate]:
         """Candidates anywhere on the field; at half resolution when the ball is big enough (4x cheaper)."""
@@ -266,8 +287,15 @@ class BallTracker:
         ppm = self.mapping.pixels_per_metre(state.x[:2])
         radius = BALL_RADIUS * ppm
         sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
-        gate = 4.0 * sigma + 1.5 * radius + 2.0
-        return self._search_window(bgr, self.table_to_pixel(state.x[:2]), gate, gate + 2 * radius + 2)
+        gate = min(4.0 * sigma, MAX_GATE * ppm) + 1.5 * radius + 2.0
+        centre = self.table_to_pixel(state.x[:2])
+        found, lab, roi = self._search_window(bgr, centre, gate, gate + 2 * radius + 2)
+        if found is not None and not self._confident(found):
+            # A partly hidden ball is followed only where it is expected; further out, only a whole ball
+            # counts, so a figure of the ball's colour cannot take the track over.
+            if math.hypot(found.u - centre[0], found.v - centre[1]) > min(gate, 2.0 * radius + 2 * sigma + 2.0):
+                return None, lab, roi
+        return found, lab, roi
 
     # --- colour -------------------------------------------------------------------------------------
     def _vote_colour(self, bgr: np.ndarray) -> None:

@@ -34,7 +34,7 @@ class ConstantVelocityKalman:
 
     accel_noise is the spectral density of the unmodelled acceleration (m^2/s^3): rolling and friction
     are small, so it is small; wall and figure hits are not, and the innovation gate below
-    reopens the velocity when a hit is too hard to follow.
+    restarts the track from the measured position when a hit is too hard to follow.
     """
 
     def __init__(self, measurement_std: float = 0.0015, accel_noise: float = 0.5, max_gap: float = 0.25,
@@ -74,11 +74,8 @@ class ConstantVelocityKalman:
         innovation = xy - x[:2]
         s = p[:2, :2] + self.r * np.eye(2)
         if innovation @ np.linalg.solve(s, innovation) > self.restart_sigma**2:
-            # A hit (wall, figure, hand): the old velocity is no guide; reopen it, keep the position prior.
-            p = p.copy()
-            p[2:, 2:] += np.eye(2) * 4.0
-            p[:2, :2] += np.eye(2) * float(innovation @ innovation)
-            s = p[:2, :2] + self.r * np.eye(2)
+            # A hit (wall, figure, hand): the old velocity is no guide; start over from this position.
+            return self._start(t, xy)
         gain = p[:, :2] @ np.linalg.inv(s)
         x = x + gain @ innovation
         p = (np.eye(4) - gain[:, :2] @ np.eye(2, 4)) @ p
