@@ -30,7 +30,7 @@ TOLERANCE = {  # looser than the benchmark's targets: one 60 s trial, not a medi
 
 def run(effects, seed, tmp_path, **options):
     rec = gen.generate(effects, 60.0, seed)
-    return calibrate(rec.t, rec.position, "table", tmp_path / "out", Options(figures=False, max_starts=20, **options))
+    return calibrate(rec.t, rec.position, "table", tmp_path / "out", Options(figures=False, max_starts=12, **options))
 
 
 @pytest.mark.timeout(240)
@@ -62,7 +62,7 @@ def test_two_effects_through_the_command_and_loop_closure(tmp_path, ros2_run):
     bag = tmp_path / "measured"
     gen.write_bag(gen.generate(hidden, 60.0, seed=21), bag)
     out = tmp_path / "out"
-    result = ros2_run("calibrate", str(bag), "--out", str(out), "--max-starts", "20")
+    result = ros2_run("calibrate", str(bag), "--out", str(out), "--max-starts", "12")
     assert result.returncode == 0, result.stderr
     assert "table_tilt" in result.stdout and "wall_restitution" in result.stdout and "1 s ahead" in result.stdout
     report = json.loads((out / "report.json").read_text())
@@ -79,7 +79,7 @@ def test_two_effects_through_the_command_and_loop_closure(tmp_path, ros2_run):
     assert model.nu == 16 and model.opt.gravity[0] < 0  # surface descends toward -x
 
     calibrated = load_params(report["params_file"])
-    rec = gen.generate([], 60.0, seed=22, params=calibrated)  # the calibrated table itself, nothing hidden
+    rec = gen.generate([], 40.0, seed=22, params=calibrated)  # the calibrated table itself, nothing hidden
     closure = calibrate(rec.t, rec.position, "table", tmp_path / "closure",
                         Options(figures=False, max_starts=10, base=report["params_file"]))
     assert closure["effects"] == [], closure["effects"]

@@ -51,7 +51,7 @@ def residual_map(measured: Measured, field: Field, nominal_theta: np.ndarray, fo
     fig, ax = plt.subplots(figsize=(5.2, 8))
     if len(P):
         R = A - surrogate.acceleration(P, V, np.tile(nominal_theta, (len(P), 1)))
-        cell = 0.06
+        cell = 0.085
         ix = np.floor((P[:, 0] + field.half_x) / cell).astype(int)
         iy = np.floor((P[:, 1] + field.half_y) / cell).astype(int)
         nx, ny = int(np.ceil(2 * field.half_x / cell)), int(np.ceil(2 * field.half_y / cell))
