@@ -9,6 +9,7 @@ give a full projection matrix (DLT) and need no intrinsics at all.
 """
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Optional
@@ -22,6 +23,7 @@ from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 
 MIN_TAGS = 4
 MAX_TAG_RESIDUAL = 0.010  # m; worse than this and the markers file does not describe the table filmed
+CONSISTENT_TAGS = 0.002  # m RMS; above it, a tag that disagrees with the others is looked for
 
 
 def tag_centre(corners: np.ndarray) -> np.ndarray:
@@ -71,6 +73,7 @@ class PlaneMapping:
     residual_m: float  # RMS of the tag centres against the markers file, m
     tags_used: int
     camera_height: float  # m above the ball-centre plane (estimated; nan where not needed)
+    dropped: dict = None  # tag id -> its disagreement with the others (m), for tags left out of the fit
 
     def to_table(self, pixels: np.ndarray) -> np.ndarray:
         return cv2.perspectiveTransform(np.asarray(pixels, float).reshape(-1, 1, 2), self.image_to_table).reshape(-1, 2)
@@ -143,10 +146,15 @@ def fit_mapping(
             f"{len(common)} of the markers file's tags are in view (ids seen {sorted(detected)}, "
             f"file has {layout.ids}); at least {MIN_TAGS} are needed"
         )
+    if not _general_position(np.array([layout.positions[i][:2] for i in common])):
+        raise MarkersError(f"the tags in view ({common}) lie on one line; a homography needs 4 spread over the table")
     pixels = np.array([detected[i] for i in common], float)
     world = np.array([layout.positions[i] for i in common], float)
+    ids = np.array(common)
+    dropped: dict[int, float] = {}
     z = world[:, 2]
     if np.ptp(z) < 1e-3:
+        pixels, world, ids, dropped = _drop_worst_tags(pixels, world, ids)
         z_t = float(z.mean())
         h, _ = cv2.findHomography(pixels, world[:, :2], 0)
         if h is None:
@@ -188,7 +196,53 @@ def fit_mapping(
         residual = float(np.sqrt(np.mean(np.sum((reproj - pixels) ** 2, axis=1)))) * metres_per_pixel
         camera_height = math.nan
     image_to_table = image_to_table / image_to_table[2, 2]
-    return PlaneMapping(image_to_table, np.linalg.inv(image_to_table), residual, len(common), camera_height)
+    return PlaneMapping(image_to_table, np.linalg.inv(image_to_table), residual, len(pixels), camera_height, dropped)
+
+
+def _general_position(xy: np.ndarray, min_area: float = 0.005) -> bool:
+    """Some 4 of the points have no 3 on a line (triangle areas above min_area, m^2)."""
+    def area(a, b, c):
+        return abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) / 2
+
+    for quad in itertools.combinations(range(len(xy)), 4):
+        if all(area(*xy[list(tri)]) > min_area for tri in itertools.combinations(quad, 3)):
+            return True
+    return False
+
+
+def _drop_worst_tags(pixels: np.ndarray, world: np.ndarray, ids: np.ndarray):
+    """Leave out tags that disagree with the rest (a misread id, a tag knocked off its place), one at a time."""
+    dropped: dict[int, float] = {}
+    # Keep one tag more than a homography needs, so what remains can still be checked against itself.
+    while len(pixels) > MIN_TAGS + 1:
+        h, _ = cv2.findHomography(pixels, world[:, :2], 0)
+        if h is None:
+            break
+        fitted = cv2.perspectiveTransform(pixels.reshape(-1, 1, 2), h).reshape(-1, 2)
+        if np.sqrt(np.mean(np.sum((fitted - world[:, :2]) ** 2, axis=1))) <= CONSISTENT_TAGS:
+            break
+        # Drop the tag whose absence leaves the most consistent rest: a homography is flexible enough to
+        # bend toward one bad tag, so judging each tag by a fit that includes the bad one can blame the
+        # wrong tag.
+        best, best_rms, best_error = -1, math.inf, 0.0
+        for i in range(len(pixels)):
+            others = np.arange(len(pixels)) != i
+            if not _general_position(world[others, :2]):
+                continue
+            h_i, _ = cv2.findHomography(pixels[others], world[others, :2], 0)
+            if h_i is None:
+                continue
+            fitted_i = cv2.perspectiveTransform(pixels.reshape(-1, 1, 2), h_i).reshape(-1, 2)
+            miss = np.linalg.norm(fitted_i - world[:, :2], axis=1)
+            rms = float(np.sqrt(np.mean(miss[others] ** 2)))
+            if rms < best_rms:
+                best, best_rms, best_error = i, rms, float(miss[i])
+        if best < 0:
+            break
+        keep = np.arange(len(pixels)) != best
+        dropped[int(ids[best])] = best_error
+        pixels, world, ids = pixels[keep], world[keep], ids[keep]
+    return pixels, world, ids, dropped
 
 
 def _dlt(world: np.ndarray, pixels: np.ndarray) -> np.ndarray:
@@ -209,6 +263,11 @@ class TagLocator:
         self.lens = lens
         params = cv2.aruco.DetectorParameters()
         params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+        # Far tags in an oblique view are ~3 px per cell and their borders blur: tolerate border bit
+        # errors and correct as many data bits as the dictionary allows. A misread id cannot do harm:
+        # tags that disagree with the rest are left out of the fit.
+        params.maxErroneousBitsInBorderRate = 0.6
+        params.errorCorrectionRate = 1.0
         self.detector = cv2.aruco.ArucoDetector(layout.aruco_dictionary(), params)
 
     def detect(self, gray: np.ndarray) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:

@@ -144,6 +144,9 @@ def track_video(args: argparse.Namespace) -> int:
         cv2.imwrite(args.annotate, last_frame)
     print(f"track_video: {len(detections)} detections in {stats.frames} frames ({len(detections) / stats.frames:.0%}), "
           f"{stats.tag_fits} tag fits, colour {tracker.colour.name}, {stats.frames / elapsed:.0f} frames/s -> {args.out}")
+    for tag_id, error in sorted(stats.dropped_tags.items()):
+        print(f"track_video: warning: tag {tag_id} is {error * 1000:.0f} mm from where the markers file puts it "
+              f"(relative to the other tags); it was left out of the fit - measure it again", file=sys.stderr)
     if interrupted:
         print("track_video: interrupted; the bag holds the frames tracked so far", file=sys.stderr)
         return 130

@@ -56,6 +56,7 @@ class TrackerStats:
     tag_fits: int = 0
     tags_seen: set = field(default_factory=set)
     rejected_fits: int = 0
+    dropped_tags: dict = field(default_factory=dict)  # id -> worst disagreement (m) when left out of a fit
 
 
 class BallTracker:
@@ -109,6 +110,8 @@ class BallTracker:
             return
         self.stats.tag_fits += 1
         self.last_fit_error = None
+        for tag_id, error in (mapping.dropped or {}).items():
+            self.stats.dropped_tags[tag_id] = max(error, self.stats.dropped_tags.get(tag_id, 0.0))
         if self.mapping is None or not np.allclose(mapping.image_to_table, self.mapping.image_to_table, atol=1e-9):
             self.mapping = mapping
             self._update_region(bgr.shape[1], bgr.shape[0])
