@@ -31,7 +31,7 @@ class TrackerConfig:
     intrinsics: Optional[Intrinsics] = None
     tag_interval: int = 30  # frames between tag refits once the tags are found (the camera is mounted)
     fovy_hint: float = 50.0  # used only for parallax with tags off the ball plane and no intrinsics
-    auto_frames: int = 8  # frames used to pick the colour in auto mode
+    auto_frames: int = 24  # frames at least used to pick the colour in auto mode
     learn_after: int = 0  # > 0: confident detections before the colour box is re-centred on the ball seen (off:
     # on renders re-centring lost the ball's rim pixels and doubled the median error)
     measurement_std: float = 0.0015
@@ -308,25 +308,25 @@ class BallTracker:
             candidates, _, _ = detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius, self._region)
             self._auto_seen[name].append([(c.u, c.v) for c in candidates if self._confident(c)])
         votes = {name: self._colour_votes(frames) for name, frames in self._auto_seen.items()}
-        best = max(BALL_COLOR_NAMES, key=lambda n: votes[n])
+        ranked = sorted(BALL_COLOR_NAMES, key=lambda n: -votes[n])
+        best, second = ranked[0], ranked[1]
         if votes[best] > 0:
             self.detector = BallDetector(colour_model(best))
-        if self.stats.frames_with_mapping >= self.config.auto_frames and votes[best] > 0:
+        # Settle only on clear evidence: a figure of one colour can pass for a ball now and then.
+        if (self.stats.frames_with_mapping >= self.config.auto_frames and votes[best] >= 3
+                and votes[best] >= 2 * votes[second]):
             self._auto_done = True
             self.kalman.reset()
 
     @staticmethod
-    def _colour_votes(frames: list[list[tuple[float, float]]]) -> float:
-        """Frames with exactly one candidate that is not a fixture (a blob at the same pixel in most frames)."""
+    def _colour_votes(frames: list[list[tuple[float, float]]]) -> int:
+        """Frames with exactly one candidate that is not a fixture: a blob found again at the same pixel
+        (2 px) in a frame at least 6 frames away is part of the table or a figure at rest, not a ball."""
         def static(p, own):
-            hits = sum(any(math.hypot(p[0] - q[0], p[1] - q[1]) < 2.0 for q in other)
-                       for j, other in enumerate(frames) if j != own)
-            return hits >= 0.5 * max(1, len(frames) - 1)
+            return any(math.hypot(p[0] - q[0], p[1] - q[1]) < 2.0
+                       for j, other in enumerate(frames) if abs(j - own) >= 6 for q in other)
 
-        moving_votes = sum(1 for i, f in enumerate(frames) if len([p for p in f if not static(p, i)]) == 1)
-        single = sum(1 for f in frames if len(f) == 1)
-        del single  # a blob that never moves is a fixture, not evidence of a ball
-        return moving_votes
+        return sum(1 for i, f in enumerate(frames) if len([p for p in f if not static(p, i)]) == 1)
 
     @property
     def colour(self) -> ColourModel:
