@@ -40,3 +40,23 @@ def test_render_refuses_a_bag_without_ball_states(tmp_path):
     assert result.returncode != 0
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
     assert not (tmp_path / "x.mp4").exists()
+
+
+@pytest.mark.timeout(120)
+def test_render_a_tilted_table_for_calibration(tmp_path):
+    """The calibration developer's path: a hidden tilt in a params file, free rolls, truth next to the mp4."""
+    params = tmp_path / "tilted.yaml"
+    params.write_text("base: regulation_table\neffects:\n  - {name: table_tilt, params: {slope_x: 0.02, slope_y: 0.0}}\n")
+    render(tmp_path / "tilt.mp4", "--scenario", "rolls", "--params-file", str(params), "--duration", "0.6",
+           "--fps", "30", "--seed", "4")
+    render(tmp_path / "level.mp4", "--scenario", "rolls", "--duration", "0.6", "--fps", "30", "--seed", "4")
+    tilted, level = read_truth(tmp_path / "tilt.truth.csv"), read_truth(tmp_path / "level.truth.csv")
+    assert len(tilted["t"]) == 19 and np.all(np.isfinite(tilted["x"]))
+    # The same serve on both tables: a 2 % slope toward +x adds 5/7 g 0.02 = 0.14 m/s^2 along x
+    # (rolling ball), whatever the rolling resistance does.
+    extra = np.median(np.diff(tilted["vx"] - level["vx"]) / np.diff(tilted["t"]))
+    assert 0.07 < extra < 0.25
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("base: regulation_table\neffects: [{name: table_tilt}]\n")
+    result = ros2_run("render_video", str(tmp_path / "bad.mp4"), "--params-file", str(bad), "--quiet")
+    assert result.returncode != 0 and len(result.stderr.strip().splitlines()) == 1
