@@ -4,8 +4,8 @@ A bounce window starts at the end of the rolling segment before a wall contact (
 rolling fit: the ball rolls there) and runs 0.25 s past the contact. MuJoCo replays every window for
 each restitution on a grid (one batched rollout; one model per row), and each window's squared
 error against the detections is kept per grid value. The restitution is the parabolic minimum of
-the summed error; held-out evidence comes from the same table: fitted on the bounces of one fold
-of tracks, scored on the other.
+the summed error; held-out evidence comes from the same table: fitted on every other bounce,
+scored on the rest, and the other way round.
 """
 from __future__ import annotations
 
@@ -107,7 +107,7 @@ def fit_restitution(measured: Measured, fit_: Fit, params: dict, nominal: float,
     rss = window_errors(windows, params)
     total = rss.sum(axis=0)
     fitted = _minimum(total)
-    folds = np.array([w.track % 2 for w in windows])
+    folds = np.arange(len(windows)) % 2
     sigma2 = noise**2
     drops = []
     for k in (0, 1):
@@ -132,7 +132,7 @@ def fold_restitution(result: RestitutionResult, fold: int, nominal: float) -> fl
     """Restitution fitted on one fold's bounces (nominal when none or not named)."""
     if result.coefficient is None:
         return nominal
-    folds = np.array([w.track % 2 for w in result.windows])
+    folds = np.arange(len(result.windows)) % 2
     if not np.any(folds == fold):
         return result.coefficient
     return _minimum(result.rss[folds == fold].sum(axis=0))

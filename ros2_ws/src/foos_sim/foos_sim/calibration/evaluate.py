@@ -4,8 +4,8 @@ Starts are taken every START_SPACING along the rolling segments, each with at le
 rolling data before it. The state at a start is estimated only from that history (each model's
 own dynamics, least squares over the window), then MuJoCo rolls the ball forward and the error
 against the detections is taken 0.25, 0.5 and 1 s ahead (through wall bounces; a horizon past the
-end of the track is skipped). Calibrated predictions are cross-fitted: a start on an even track is
-predicted by the model fitted on odd tracks and vice versa, so no start was seen by its model.
+end of the track is skipped). Calibrated predictions are cross-fitted: a start on a segment of one fold is
+predicted by the model fitted on the other fold of segments, so no start's data was seen by its model.
 """
 from __future__ import annotations
 
@@ -28,6 +28,7 @@ class Start:
     track: int
     t0: float
     history: Segment
+    fold: int = 0  # the fold of the segment it lies on
 
 
 @dataclass
@@ -46,7 +47,7 @@ def choose_starts(measured: Measured, max_starts: int, seed: int = 0) -> list[St
             k = int(np.searchsorted(seg.t, t0, side="right"))
             m = (seg.t >= t0 - HISTORY) & (seg.t <= t0)
             if m.sum() >= 15:
-                starts.append(Start(seg.track, float(seg.t[k - 1]), Segment(seg.track, seg.flight, seg.t[m], seg.xy[m])))
+                starts.append(Start(seg.track, float(seg.t[k - 1]), Segment(seg.track, seg.flight, seg.t[m], seg.xy[m]), seg.fold))
             t0 += START_SPACING
     if len(starts) > max_starts:
         rng = np.random.default_rng(seed)

@@ -106,7 +106,7 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
             e_k = fold_restitution(restitution, k, nominal_e) if restitution.coefficient is not None else base_e
             trees.append(params_with(effects_list(modelled, selection.fold_theta[k], e_k), params))
         for s in starts:
-            other = 1 - s.track % 2  # the fold this start's track was not fitted on
+            other = 1 - s.fold  # the fold this start's segment was not fitted on
             thetas.append(selection.fold_theta[other])
             index.append(other)
         models["calibrated"] = (trees, thetas, index)
@@ -142,10 +142,10 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
             "bounces_used": len(restitution.windows), "noise_mm": round(measured.noise * 1000, 2),
         },
         "method": {
-            "selection": "forward selection; an effect is named when its held-out error drop (2 folds by track) exceeds "
+            "selection": "forward selection; an effect is named when its held-out error drop (2 alternating folds of segments) exceeds "
                          "30 noise variances and it is materially large",
             "horizons_s": list(HORIZONS),
-            "calibrated_predictions": "cross-fitted: each start predicted by the model fitted on the other fold",
+            "calibrated_predictions": "cross-fitted: each start predicted by the model fitted on the other fold of segments",
         },
     }
     if options.figures:

@@ -71,6 +71,7 @@ class Segment:
     flight: int
     t: np.ndarray
     xy: np.ndarray
+    fold: int = 0  # held-out fold: alternating along the recording, so both folds see every place
 
 
 @dataclass
@@ -272,6 +273,8 @@ def analyse(t: np.ndarray, xy: np.ndarray, field_: Field) -> Measured:
             segments += rolling_segments(flight, base + f_index)
         for before, after, t_contact, wall in contacts:
             bounces.append(Bounce(k, wall, t_contact, base + before, base + after))
+    for i, s in enumerate(segments):
+        s.fold = i % 2
     # Noise: second differences of 3 consecutive frames are dominated by it (sqrt(6) sigma).
     d2 = []
     for tt, pp in tracks:
