@@ -63,7 +63,12 @@ class VideoSource(Node):
                         if delay > 0:
                             time.sleep(delay)
                 last_t = t
-                self.publisher.publish(self._message(frame, stamp))
+                try:
+                    self.publisher.publish(self._message(frame, stamp))
+                except Exception:  # rclpy's RCLError: Ctrl-C or SIGTERM shut the context down mid-publish
+                    if rclpy.ok():
+                        raise
+                    return
                 self.published += 1
             if not self.loop or self.is_device:
                 return
@@ -93,7 +98,8 @@ def main(args=None) -> None:
         end = time.monotonic() + 0.5
         while rclpy.ok() and time.monotonic() < end:
             rclpy.spin_once(node, timeout_sec=0.05)
-        node.get_logger().info(f"done: {node.published} frames published")
+        if rclpy.ok():
+            node.get_logger().info(f"done: {node.published} frames published")
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (VisionError, ValueError, OSError) as error:
