@@ -56,3 +56,11 @@ def test_the_away_team_plays_the_mirrored_game(sim):
         home.joints, home.ball = joint_sample(0, JOINT_NAMES, q, dq), ball_sample(0, p, v)
         away.joints, away.ball = joint_sample(0, JOINT_NAMES, -q[swap], -dq[swap]), ball_sample(0, -p, -v)
         np.testing.assert_allclose(home.step(0.0)[0], -away.step(0.0)[0], atol=1e-5)
+
+
+def test_wilson_interval_holds_the_rate_at_the_edges():
+    from foos_policy.evaluation import wilson_interval
+
+    assert wilson_interval(0, 60)[0] == 0.0 and wilson_interval(60, 60)[1] == 1.0
+    lo, hi = wilson_interval(13, 100)
+    assert lo == pytest.approx(0.078, abs=1e-3) and hi == pytest.approx(0.210, abs=1e-3)
