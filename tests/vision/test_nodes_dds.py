@@ -107,3 +107,19 @@ def test_tracker_node_refuses_a_bad_markers_file(tmp_path):
     text = (tmp_path / "log").read_text()
     assert code == 2
     assert "tracker_node: error:" in text and "at least 4" in text and "Traceback" not in text
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_nodes_exit_cleanly_on_sigterm_and_ctrl_c(overhead_video, tmp_path, sig):
+    for executable, params in (("video_source", [f"source:={overhead_video}", "loop:=true"]), ("tracker_node", [])):
+        log_path = tmp_path / f"{executable}.log"
+        with open(log_path, "wb") as log:
+            proc = spawn(43, executable, *params, log=log)
+            time.sleep(4.0)
+            assert proc.poll() is None, log_path.read_text()
+            proc.send_signal(sig)
+            code = proc.wait(15)
+        text = log_path.read_text()
+        assert code == 0, text
+        assert "Traceback" not in text, text
