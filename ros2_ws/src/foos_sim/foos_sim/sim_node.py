@@ -172,12 +172,22 @@ class SimNode(Node):
     # --- the loop ------------------------------------------------------------------------------
     def run(self, executor: SingleThreadedExecutor) -> None:
         """Advance event by event; pace against the wall clock unless running as fast as possible."""
+        try:
+            self._run(executor)
+        except Exception:
+            # A signal can shut the context down between rclpy.ok() and a publish or a wait: that is a
+            # shutdown, not an error.
+            if rclpy.ok():
+                raise
+            raise ExternalShutdownException() from None
+
+    def _run(self, executor: SingleThreadedExecutor) -> None:
         wall_start, sim_start = time.monotonic(), self.runner.time
         while rclpy.ok():
             for event in self.runner.advance():
                 self.publish(event)
             if self.real_time_factor == 0:
-                _spin_once(executor, 0.0)
+                executor.spin_once(timeout_sec=0.0)
                 continue
             due = wall_start + (self.runner.next_event_time() - sim_start) / self.real_time_factor
             if time.monotonic() - due > BEHIND_RESYNC_S:
@@ -187,19 +197,9 @@ class SimNode(Node):
                 continue
             while True:
                 remaining = due - time.monotonic()
-                _spin_once(executor, max(remaining, 0.0))
+                executor.spin_once(timeout_sec=max(remaining, 0.0))
                 if remaining <= 0:
                     break
-
-
-def _spin_once(executor: SingleThreadedExecutor, timeout: float) -> None:
-    try:
-        executor.spin_once(timeout_sec=timeout)
-    except Exception:
-        # A signal can shut the context down between rclpy.ok() and the wait: that is a shutdown.
-        if rclpy.ok():
-            raise
-        raise ExternalShutdownException() from None
 
 
 def main(args=None) -> int:
