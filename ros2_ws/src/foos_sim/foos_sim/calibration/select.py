@@ -41,6 +41,8 @@ def material(name: str, theta: np.ndarray, base: np.ndarray) -> bool:
     if name == "air_drag":
         return abs(theta[4] - base[4]) >= 0.008
     if name == "surface_dent":
+        if abs(theta[8]) >= 0.009 or theta[7] <= 0.031:  # at the fit's bounds: not a credible dent
+            return False
         moved = np.hypot(theta[5] - base[5], theta[6] - base[6]) >= 0.03 if base[8] else True
         return abs(theta[8] - base[8]) >= 0.0005 or (moved and abs(theta[8]) >= 0.0005)
     return True
@@ -70,8 +72,13 @@ class HeldOut:
     def usable(self) -> bool:
         return all(b is not None and b.n >= 2 for b in self.batches)
 
-    def score(self, names: tuple[str, ...], theta_full: np.ndarray) -> tuple[list[float], list[np.ndarray]]:
-        """Held-out RSS of fold 1 under fold 0's fit and of fold 0 under fold 1's, and those thetas."""
+    def score(self, names: tuple[str, ...], theta_full: np.ndarray, current_thetas: list[np.ndarray] | None = None,
+              new_dent: bool = False) -> tuple[list[float], list[np.ndarray]]:
+        """Held-out RSS of fold 1 under fold 0's fit and of fold 0 under fold 1's, and those thetas.
+
+        A new dent is searched for on the training fold alone: started from the all-data dent, a
+        fold without data near it would keep it untouched and "predict" the other fold with it.
+        """
         key = tuple(sorted(names))
         if key in self.cache:
             return self.cache[key]
@@ -79,7 +86,14 @@ class HeldOut:
         thetas, rss = [], [0.0, 0.0]
         for k in (0, 1):
             train = self.batches[k]
-            thetas.append(fit(train, free, theta_full).theta if free else theta_full.copy())
+            start = theta_full
+            if new_dent and current_thetas is not None:
+                start = current_thetas[k].copy()
+                start[5:9] = dent_search(train, fit_states(train, current_thetas[k]))[0]
+                for j in free:  # the other free parameters start where the all-data fit put them
+                    if j < 5:
+                        start[j] = theta_full[j]
+            thetas.append(fit(train, free, start).theta if free else theta_full.copy())
         for k in (0, 1):
             test = self.batches[1 - k]
             rss[1 - k] = fit_states(test, thetas[k]).rss
@@ -125,7 +139,8 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
                 start[j] = max(start[j], 1e-3)
             candidate = fit(batch, free_indices(chosen + [name]), start, current.states)
             progress(f"held-out check of {name}")
-            rss, thetas = held.score(tuple(chosen + [name]), candidate.theta)
+            rss, thetas = held.score(tuple(chosen + [name]), candidate.theta, base_thetas,
+                                     new_dent=name == "surface_dent" and not theta0[8])
             fold_drops = [(b - r) / sigma2 for b, r in zip(base_rss, rss)]
             info = {
                 "held_out_error_drop_noise_variances": round(float(sum(fold_drops)), 1),
