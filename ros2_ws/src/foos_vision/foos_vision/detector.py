@@ -1,6 +1,8 @@
 """Finding the ball in a frame: a colour model, a size prior from the homography, sub-pixel centres.
 
-The colour model is a box in OpenCV's 8-bit Lab space (lightness range, a/b centre and half width).
+The colour model is a box in OpenCV's 8-bit Lab space (lightness range, a/b centre and half width),
+widened for coloured balls by a hue band with a saturation floor (OpenCV HSV): hue and saturation do not
+change when a surface is shaded, so the dark underside of the ball, which leaves the Lab box, stays in.
 Named colours start from a broad prototype; `learn` narrows it to the pixels of confidently detected
 balls, so the model ends up fitted to the real ball under the real lights. `auto` tries each named
 prototype on the first frames and keeps the one that finds a ball-sized, round blob most often.
@@ -25,19 +27,42 @@ class ColourModel:
     a: float
     b: float
     ab_tol: float  # half width of the a/b box
+    # Shading-tolerant band (OpenCV HSV, hue 0-179): hue_lo > hue_hi wraps through 0 (red). None: no band
+    # (a white ball has no hue; its shaded side is as grey as a steel rod).
+    hue_lo: Optional[int] = None
+    hue_hi: Optional[int] = None
+    s_min: int = 170  # the felt, wood, skin and painted figures are less saturated than a coloured ball
+    v_min: int = 45  # below this, hue is noise
 
-    def mask(self, lab: np.ndarray) -> np.ndarray:
+    def box_mask(self, lab: np.ndarray) -> np.ndarray:
         lo = (self.l_min, max(0, int(self.a - self.ab_tol)), max(0, int(self.b - self.ab_tol)))
         hi = (self.l_max, min(255, int(self.a + self.ab_tol)), min(255, int(self.b + self.ab_tol)))
         return cv2.inRange(lab, lo, hi)
 
+    def band_mask(self, bgr: np.ndarray) -> Optional[np.ndarray]:
+        """Pixels of the ball's hue and saturation at any lightness (None for a model without a band)."""
+        if self.hue_lo is None or self.hue_hi is None:
+            return None
+        hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
+        if self.hue_lo <= self.hue_hi:
+            return cv2.inRange(hsv, (self.hue_lo, self.s_min, self.v_min), (self.hue_hi, 255, 255))
+        return (cv2.inRange(hsv, (self.hue_lo, self.s_min, self.v_min), (179, 255, 255))
+                | cv2.inRange(hsv, (0, self.s_min, self.v_min), (self.hue_hi, 255, 255)))
 
-# Prototypes from the reflectance of typical balls under neutral light: broad on purpose.
+    def mask(self, lab: np.ndarray, bgr: Optional[np.ndarray] = None) -> np.ndarray:
+        box = self.box_mask(lab)
+        band = None if bgr is None else self.band_mask(bgr)
+        return box if band is None else box | band
+
+
+# Prototypes from the reflectance of typical balls under neutral light: broad on purpose. The hue bands
+# split the hue circle between the three coloured balls (red 168-9, orange 8-21, yellow 20-40), so auto
+# still tells them apart.
 PROTOTYPES = {
     "white": ColourModel("white", 150, 255, 128, 130, 14),
-    "yellow": ColourModel("yellow", 90, 255, 122, 192, 26),
-    "orange": ColourModel("orange", 60, 255, 160, 185, 22),
-    "red": ColourModel("red", 50, 230, 185, 165, 24),
+    "yellow": ColourModel("yellow", 90, 255, 122, 192, 26, hue_lo=20, hue_hi=40),
+    "orange": ColourModel("orange", 60, 255, 160, 185, 22, hue_lo=8, hue_hi=21),
+    "red": ColourModel("red", 50, 230, 185, 165, 24, hue_lo=168, hue_hi=9),
 }
 
 
@@ -71,6 +96,8 @@ class Candidate:
     area_ratio: float  # visible pixels / expected disc area
     roundness: float  # 1 for a disc, lower for streaks and bars
     score: float
+    spill: float = 0.0  # blob pixels 1.25-1.8 radii from the centre / expected disc area: ~0 for a lone ball
+    fill: float = 1.0  # share of the inner disc (0.7 radii) that is ball-coloured: ~1 for a ball in view
 
 
 def _refine_centre(mask: np.ndarray, u: float, v: float, radius: float) -> tuple[float, float, float]:
@@ -134,6 +161,17 @@ def _fit_known_radius(mask: np.ndarray, u: float, v: float, radius: float) -> tu
     return float(c[0]), float(c[1])
 
 
+def _ring_pixels(mask: np.ndarray, u: float, v: float, inner: float, outer: float) -> int:
+    """Mask pixels between two radii around (u, v): a blob that goes on past the ball's outline is, or
+    touches, something else of its colour (a figure, a hand)."""
+    h, w = mask.shape
+    x0, y0 = max(0, int(u - outer)), max(0, int(v - outer))
+    x1, y1 = min(w, int(u + outer) + 2), min(h, int(v + outer) + 2)
+    ys, xs = np.nonzero(mask[y0:y1, x0:x1])
+    d2 = (xs + x0 - u) ** 2 + (ys + y0 - v) ** 2
+    return int(np.count_nonzero((d2 > inner * inner) & (d2 <= outer * outer)))
+
+
 class BallDetector:
     """Candidates for the ball in a region of a frame, with centres and quality measures."""
 
@@ -141,16 +179,24 @@ class BallDetector:
         self.model = model
 
     def candidates(self, bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Callable[[float, float], float],
-                   min_radius: float, region_mask: Optional[np.ndarray] = None, bridge_px: int = 0
-                   ) -> tuple[list[Candidate], np.ndarray, np.ndarray]:
+                   min_radius: float, region_mask: Optional[np.ndarray] = None, bridge_px: int = 0,
+                   use_band: bool = True, band_seeds: bool = False) -> tuple[list[Candidate], np.ndarray, np.ndarray]:
         """Candidates inside roi = (x0, y0, x1, y1); radius_at(u, v) is the expected ball radius in pixels
-        at a full-frame pixel. Also returns the roi's Lab image and colour mask."""
+        at a full-frame pixel. Also returns the roi's Lab image and colour mask.
+
+        Blobs start from the Lab box. The hue band (shaded ball pixels) only completes a blob's disc when
+        its centre is measured, unless band_seeds: a wooden frame or a dark figure can share the ball's hue
+        and saturation, so band pixels alone found a blob only where the caller expects the ball."""
         x0, y0, x1, y1 = roi
         lab = cv2.cvtColor(bgr[y0:y1, x0:x1], cv2.COLOR_BGR2Lab)
-        mask = self.model.mask(lab)
+        box = self.model.box_mask(lab)
+        band = self.model.band_mask(bgr[y0:y1, x0:x1]) if use_band else None
         if region_mask is not None:
-            mask &= region_mask[y0:y1, x0:x1]
-        grouping = mask
+            box &= region_mask[y0:y1, x0:x1]
+            if band is not None:
+                band &= region_mask[y0:y1, x0:x1]
+        mask = box if band is None else box | band
+        grouping = mask if band_seeds else box
         if bridge_px > 0:
             # A rod across the ball cuts it in two crescents: group pixels across such a thin gap, but
             # measure the centre on the ball's own pixels only.
@@ -185,6 +231,13 @@ class BallDetector:
                 py, px = np.unravel_index(int(np.argmax(dist)), dist.shape)
                 u, v = float(px), float(py)
             u, v, count = _refine_centre(local, float(u), float(v), radius_px)
+            if band is not None and not band_seeds:
+                # The shaded part of the disc is in the band, not the box: measure on both, unless that
+                # brings in more than a ball's worth of pixels (the ball against something of its hue).
+                whole = (mask[wy0:wy0 + local.shape[0], wx0:wx0 + local.shape[1]] > 0).astype(np.uint8) | local
+                uw, vw, cw = _refine_centre(whole, u, v, radius_px)
+                if count <= cw <= 1.15 * expected:
+                    local, u, v, count = whole, uw, vw, cw
             ratio = count / expected
             if ratio < 0.25:
                 continue
@@ -197,7 +250,9 @@ class BallDetector:
             if len(xs) >= 5:
                 ev = np.linalg.eigvalsh(np.cov(np.stack([xs, ys]).astype(float)))
                 roundness = float(math.sqrt(max(ev[0], 1e-6) / max(ev[1], 1e-6)))
+            spill = _ring_pixels(local, u, v, 1.25 * radius_px, 1.8 * radius_px) / expected
+            fill = _ring_pixels(local, u, v, -1.0, 0.7 * radius_px) / max(1.0, math.pi * (0.7 * radius_px) ** 2)
             u, v = u + wx0, v + wy0
             score = min(ratio, 1.0) * roundness - 0.5 * max(0.0, ratio - 1.3)
-            found.append(Candidate(u + x0, v + y0, ratio, roundness, score))
+            found.append(Candidate(u + x0, v + y0, ratio, roundness, score, spill, fill))
         return found, lab, mask

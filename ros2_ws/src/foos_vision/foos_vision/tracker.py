@@ -19,6 +19,10 @@ BALL_RADIUS = 0.0175
 WEAK_TRACK_LIMIT = 0.15  # s: longest a track may live on partly hidden blobs alone
 MAX_GATE = 0.12  # m: the farthest a track may jump between two frames
 RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
+BAND_SEEDS_NEAR = False
+COAST_SPEED = 1.5  # m/s: the speed change a hit can give a hidden ball, for the gate while a track coasts
+MIN_PARTIAL_FILL = 0.4  # share of the inner disc a partly hidden ball must fill
+CONFIDENT_RUN = 3  # ball-like frames in a row that make a track on partial blobs healthy again
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
 # pockets behind the mouths are roofed, so a camera above never sees a ball there, only the roof.
@@ -85,6 +89,7 @@ class BallTracker:
         self._last_t: Optional[float] = None
         self._fixtures: dict[tuple[int, int], int] = {}
         self._weak_since: Optional[float] = None
+        self._confident_run = 0
         self._radius_grid = np.ones((1, 1))
         self._search_scale = 1.0
         self._region_small: Optional[np.ndarray] = None
@@ -215,14 +220,30 @@ class BallTracker:
     def _find(self, bgr: np.ndarray, t: float):
         predicted = self.kalman.predict(t)
         if predicted is not None:
-            found = self._search_near(bgr, predicted)
-            if found[0] is not None and self._confident(found[0]):
+            found = self._search_near(bgr, predicted, t - self.kalman.state.t)
+            if found[0] is not None and self._solid(found[0]):
                 self._weak_since = None
+                self._confident_run = 0
                 return found
             if found[0] is not None:
-                # Only part of a ball where one is expected: good for a while (a rod or a foot across it),
-                # but a track made of parts alone ends after WEAK_TRACK_LIMIT: it may be a figure of the
-                # ball's colour, next to where the ball was picked up.
+                # Not a whole, round ball where one is expected: a ball behind a rod or a foot, or a figure of
+                # the ball's colour that the track slid onto when the ball was picked up. A whole ball
+                # elsewhere on the field settles it.
+                elsewhere = self._solid_elsewhere(bgr, found[0])
+                if elsewhere[0] is not None:
+                    self.kalman.reset()
+                    self._weak_since = None
+                    self._confident_run = 0
+                    return elsewhere
+                # A figure's outline passes for a ball now and then, a ball in view does so frame after
+                # frame: only a run of ball-like frames makes a track healthy again.
+                self._confident_run = self._confident_run + 1 if self._confident(found[0]) else 0
+                if self._confident_run >= CONFIDENT_RUN:
+                    self._weak_since = None
+                    return found
+                # Only part of a ball: good for a while, but a track made of parts alone ends after
+                # WEAK_TRACK_LIMIT: it may be a figure of the ball's colour, next to where the ball was
+                # picked up.
                 self._weak_since = t if self._weak_since is None else self._weak_since
                 if t - self._weak_since <= WEAK_TRACK_LIMIT:
                     return found
@@ -230,7 +251,25 @@ class BallTracker:
         found = self._best_on_field(bgr)
         if found[0] is not None:
             self._weak_since = None
+            self._confident_run = 0
         return found
+
+    @staticmethod
+    def _solid(c: Candidate) -> bool:
+        """A whole ball in plain view: nearly the full disc, round, filled, and not part of a larger blob."""
+        return 0.75 <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85 and c.spill <= 0.15
+
+    def _solid_elsewhere(self, bgr: np.ndarray, tracked: Candidate):
+        """A whole ball away from the tracked blob, found with the shading-tolerant colour (or nothing)."""
+        radius = self._radius_at_pixel(tracked.u, tracked.v)
+        loose = [c for c in self._search_field(bgr) if c.area_ratio >= 0.4 and c.roundness >= 0.6
+                 and math.hypot(c.u - tracked.u, c.v - tracked.v) >= 3 * radius and not self._fixture(c, count=False)]
+        for c in sorted(loose, key=lambda c: -c.score)[:3]:
+            r = self._radius_at_pixel(c.u, c.v)
+            found = self._search_window(bgr, np.array([c.u, c.v]), 2 * r + 3, 2 * r + 3, use_band=True)
+            if found[0] is not None and self._solid(found[0]) and found[0].score >= tracked.score + 0.15:
+                return found
+        return None, None, None
 
     def _best_on_field(self, bgr: np.ndarray):
         good = [c for c in self._search_field(bgr) if self._confident(c) and not self._fixture(c)]
@@ -251,7 +290,7 @@ class BallTracker:
         s = self._search_scale
         if s == 1.0:
             candidates, self._field_lab, _ = self.detector.candidates(bgr, self._roi, self._radius_at_pixel,
-                                                                      self._min_radius, self._region)
+                                                                      self._min_radius, self._region, use_band=False)
             return candidates
         x0, y0, x1, y1 = self._roi
         small = cv2.resize(bgr[y0:y1, x0:x1], None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
@@ -259,44 +298,53 @@ class BallTracker:
         region = self._region_small
         candidates, _, _ = self.detector.candidates(
             small, (0, 0, w, h), lambda u, v: s * self._radius_at_pixel(x0 + (u + 0.5) / s - 0.5, y0 + (v + 0.5) / s - 0.5),
-            s * self._min_radius, region)
+            s * self._min_radius, region, use_band=False)
         for c in candidates:
             c.u, c.v = x0 + (c.u + 0.5) / s - 0.5, y0 + (c.v + 0.5) / s - 0.5
         return candidates
 
-    def _search_window(self, bgr: np.ndarray, centre: np.ndarray, gate: float, half: float):
+    def _search_window(self, bgr: np.ndarray, centre: np.ndarray, gate: float, half: float, use_band: bool = False,
+                       band_seeds: bool = False):
         h, w = bgr.shape[:2]
         x0, y0 = max(0, int(centre[0] - half)), max(0, int(centre[1] - half))
         x1, y1 = min(w, int(centre[0] + half) + 1), min(h, int(centre[1] + half) + 1)
         if x1 - x0 < 3 or y1 - y0 < 3:
             return None, None, None
         roi = (x0, y0, x1, y1)
-        candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._region)
+        candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._region,
+                                                      use_band=use_band, band_seeds=band_seeds)
         near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate and c.score > 0.2]
         if not near:
             return None, lab, roi
         best = min(near, key=lambda c: math.hypot(c.u - centre[0], c.v - centre[1]) / gate - c.score)
         return best, lab, roi
 
-    def _fixture(self, c: Candidate) -> bool:
+    def _fixture(self, c: Candidate, count: bool = True) -> bool:
         """A ball-like blob that sits at the same pixel frame after frame, while no ball is tracked, is part of
         the table (a screw head, a sticker, a lamp's reflection), not the ball."""
         cell = (int(c.u // 3), int(c.v // 3))
-        count = self._fixtures.get(cell, 0) + 1
-        self._fixtures[cell] = count
-        return count > FIXTURE_FRAMES
+        seen = self._fixtures.get(cell, 0) + (1 if count else 0)
+        self._fixtures[cell] = seen
+        return seen > FIXTURE_FRAMES
 
-    def _search_near(self, bgr: np.ndarray, state: KalmanState):
+    def _search_near(self, bgr: np.ndarray, state: KalmanState, coast: float = 0.0):
         ppm = self.mapping.pixels_per_metre(state.x[:2])
         radius = BALL_RADIUS * ppm
         sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
-        gate = min(4.0 * sigma, MAX_GATE * ppm) + 1.5 * radius + 2.0
+        # While the ball is hidden it may be hit (a foot, a wall): the longer the track coasts, the further
+        # from the prediction a whole ball may reappear.
+        gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
         centre = self.table_to_pixel(state.x[:2])
-        found, lab, roi = self._search_window(bgr, centre, gate, gate + 2 * radius + 2)
+        found, lab, roi = self._search_window(bgr, centre, gate, gate + 2 * radius + 2, use_band=True,
+                                              band_seeds=BAND_SEEDS_NEAR)
         if found is not None and not self._confident(found):
             # A partly hidden ball is followed only where it is expected; further out, only a whole ball
             # counts, so a figure of the ball's colour cannot take the track over.
             if math.hypot(found.u - centre[0], found.v - centre[1]) > min(gate, 2.0 * radius + 2 * sigma + 2.0):
+                return None, lab, roi
+            # The visible part of a ball is solid; the outline of a figure (its edge pixels blend into the
+            # ball's hue) is a thin ring with little inside.
+            if found.fill < MIN_PARTIAL_FILL:
                 return None, lab, roi
         return found, lab, roi
 
@@ -305,7 +353,8 @@ class BallTracker:
         """Auto colour: which prototype finds one round, ball-sized blob that moves, most often."""
         for name in BALL_COLOR_NAMES:
             detector = BallDetector(colour_model(name))
-            candidates, _, _ = detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius, self._region)
+            candidates, _, _ = detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius, self._region,
+                                                   use_band=False)
             self._auto_seen[name].append([(c.u, c.v) for c in candidates if self._confident(c)])
         votes = {name: self._colour_votes(frames) for name, frames in self._auto_seen.items()}
         ranked = sorted(BALL_COLOR_NAMES, key=lambda n: -votes[n])
