@@ -22,6 +22,8 @@ RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
 BAND_SEEDS_NEAR = False
 COAST_SPEED = 1.5  # m/s: the speed change a hit can give a hidden ball, for the gate while a track coasts
 MIN_PARTIAL_FILL = 0.4  # share of the inner disc a partly hidden ball must fill
+ACQUIRE_GAP = 0.045  # s: longest frame interval over which two sightings confirm a new track (25 fps and up)
+ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical
 CONFIDENT_RUN = 3  # ball-like frames in a row that make a track on partial blobs healthy again
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
@@ -90,6 +92,8 @@ class BallTracker:
         self._fixtures: dict[tuple[int, int], int] = {}
         self._weak_since: Optional[float] = None
         self._confident_run = 0
+        self._misses = 0  # frames since the last detection
+        self._pending: Optional[tuple[float, float, float]] = None  # (t, u, v) of an unconfirmed new track
         self._radius_grid = np.ones((1, 1))
         self._search_scale = 1.0
         self._region_small: Optional[np.ndarray] = None
@@ -206,7 +210,9 @@ class BallTracker:
                 return None  # no colour yet: a guess could be a rod or a hand
         chosen, lab_roi, roi = self._find(bgr, t)
         if chosen is None:
+            self._misses += 1
             return None
+        self._misses = 0
         xy = self.pixel_to_table(chosen.u, chosen.v)
         self.kalman.update(t, xy)
         self.stats.detections += 1
@@ -220,7 +226,7 @@ class BallTracker:
     def _find(self, bgr: np.ndarray, t: float):
         predicted = self.kalman.predict(t)
         if predicted is not None:
-            found = self._search_near(bgr, predicted, t - self.kalman.state.t)
+            found = self._search_near(bgr, predicted, t - self.kalman.state.t, self._misses)
             if found[0] is not None and self._solid(found[0]):
                 self._weak_since = None
                 self._confident_run = 0
@@ -249,15 +255,31 @@ class BallTracker:
                     return found
                 return None, None, None
         found = self._best_on_field(bgr)
-        if found[0] is not None:
-            self._weak_since = None
-            self._confident_run = 0
+        if found[0] is None:
+            self._pending = None
+            return found
+        # A new track needs a ball-like blob in two frames running, close together: the outline of a
+        # figure of a similar colour passes for a ball in a single frame now and then, a ball in view
+        # does so frame after frame.
+        c, pending = found[0], self._pending
+        self._pending = (t, c.u, c.v)
+        if self._solid(c, ACQUIRE_SOLID_RATIO):
+            pending = (t, c.u, c.v)  # a whole, round, filled disc on its own needs no second look
+        elif pending is None or t - pending[0] > 1.5 * ACQUIRE_GAP:
+            return None, None, None
+        radius = self._radius_at_pixel(c.u, c.v)
+        reach = radius + MAX_GATE * self.mapping.pixels_per_metre(self.pixel_to_table(c.u, c.v)) * min(1.0, (t - pending[0]) / 0.04)
+        if math.hypot(c.u - pending[1], c.v - pending[2]) > reach:
+            return None, None, None
+        self._pending = None
+        self._weak_since = None
+        self._confident_run = 0
         return found
 
     @staticmethod
-    def _solid(c: Candidate) -> bool:
+    def _solid(c: Candidate, min_ratio: float = 0.75) -> bool:
         """A whole ball in plain view: nearly the full disc, round, filled, and not part of a larger blob."""
-        return 0.75 <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85 and c.spill <= 0.15
+        return min_ratio <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85 and c.spill <= 0.15
 
     def _solid_elsewhere(self, bgr: np.ndarray, tracked: Candidate):
         """A whole ball away from the tracked blob, found with the shading-tolerant colour (or nothing)."""
@@ -327,7 +349,7 @@ class BallTracker:
         self._fixtures[cell] = seen
         return seen > FIXTURE_FRAMES
 
-    def _search_near(self, bgr: np.ndarray, state: KalmanState, coast: float = 0.0):
+    def _search_near(self, bgr: np.ndarray, state: KalmanState, coast: float = 0.0, coast_frames: int = 0):
         ppm = self.mapping.pixels_per_metre(state.x[:2])
         radius = BALL_RADIUS * ppm
         sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
@@ -342,9 +364,11 @@ class BallTracker:
             # counts, so a figure of the ball's colour cannot take the track over.
             if math.hypot(found.u - centre[0], found.v - centre[1]) > min(gate, 2.0 * radius + 2 * sigma + 2.0):
                 return None, lab, roi
-            # The visible part of a ball is solid; the outline of a figure (its edge pixels blend into the
-            # ball's hue) is a thin ring with little inside.
-            if found.fill < MIN_PARTIAL_FILL:
+            # After the ball has been lost for a few frames, the outline of a figure (its edge pixels blend
+            # into the ball's hue) must not restart the track: it is a thin ring with little inside, while a
+            # ball coming out from under a foot shows a solid part. (A rod across a tracked ball's middle
+            # also empties its inside, so this holds only while coasting.)
+            if coast_frames >= 2 and found.fill < MIN_PARTIAL_FILL:
                 return None, lab, roi
         return found, lab, roi
 
