@@ -19,7 +19,10 @@ from std_srvs.srv import Trigger
 
 from foos_sim.names import JOINT_NAMES
 
-DOMAINS = iter(range(10, 20))  # this file's ROS_DOMAIN_IDs; other test areas use other ranges
+# This file's ROS_DOMAIN_ID; other test areas use other ranges. One probe context serves the whole
+# module (tests run one after another, each with its own sim_node), because creating and shutting
+# down many rclpy contexts in one process is where rclpy has crashed on us.
+DOMAIN = 10
 
 
 class SimNodeProcess:
@@ -57,6 +60,10 @@ class Probe:
         self.commands = {team: self.node.create_publisher(Float64MultiArray, f"/{team}/rods/command", 10)
                          for team in ("home", "away")}
 
+    def clear(self):
+        for messages in self.received.values():
+            messages.clear()
+
     def _keep(self, key, msg):
         self.received[key].append((time.monotonic(), msg))
 
@@ -75,20 +82,30 @@ class Probe:
         self.commands[team].publish(Float64MultiArray(data=[float(v) for v in values]))
 
     def close(self):
+        # Executor first, then the node's entities, then the context: destroying a node that an executor
+        # still waits on can crash rclpy.
+        self.executor.remove_node(self.node)
+        self.executor.shutdown()
         self.node.destroy_node()
         rclpy.shutdown(context=self.context)
 
 
-@pytest.fixture
-def domain():
-    return next(DOMAINS)
-
-
-@pytest.fixture
-def probe(domain):
-    p = Probe(domain)
+@pytest.fixture(scope="module")
+def module_probe():
+    p = Probe(DOMAIN)
     yield p
     p.close()
+
+
+@pytest.fixture
+def domain():
+    return DOMAIN
+
+
+@pytest.fixture
+def probe(module_probe):
+    module_probe.clear()
+    return module_probe
 
 
 def latest_joints(probe):
@@ -190,10 +207,13 @@ def test_sim_time_clock_detections_and_reset_service(domain, probe):
         assert max(stamps) < max(clocks) + 1.0
         assert all(m.header.frame_id == "table" for _, m in probe.received["detection"])
         client = probe.node.create_client(Trigger, "/sim/reset")
-        assert client.wait_for_service(timeout_sec=10.0)
-        future = client.call_async(Trigger.Request())
-        probe.spin(10.0, until=future.done)
-        assert future.done() and future.result().success
+        try:
+            assert client.wait_for_service(timeout_sec=10.0)
+            future = client.call_async(Trigger.Request())
+            probe.spin(10.0, until=future.done)
+            assert future.done() and future.result().success
+        finally:
+            probe.node.destroy_client(client)
     finally:
         sim.stop()
 
