@@ -24,7 +24,8 @@ COAST_SPEED = 1.5  # m/s: the speed change a hit can give a hidden ball, for the
 MIN_PARTIAL_FILL = 0.4  # share of the inner disc a partly hidden ball must fill
 ACQUIRE_GAP = 0.045  # s: longest frame interval over which two sightings confirm a new track (25 fps and up)
 ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical
-CONFIDENT_RUN = 3  # ball-like frames in a row that make a track on partial blobs healthy again
+CONFIDENT_RUN = 3
+HEALTHY_FILL, HEALTHY_ROUNDNESS = 0.75, 0.8  # or a single frame this filled and round  # ball-like frames in a row that make a track on partial blobs healthy again
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
 # pockets behind the mouths are roofed, so a camera above never sees a ball there, only the roof.
@@ -244,7 +245,8 @@ class BallTracker:
                 # A figure's outline passes for a ball now and then, a ball in view does so frame after
                 # frame: only a run of ball-like frames makes a track healthy again.
                 self._confident_run = self._confident_run + 1 if self._confident(found[0]) else 0
-                if self._confident_run >= CONFIDENT_RUN:
+                if self._confident_run >= CONFIDENT_RUN or (self._confident(found[0]) and found[0].fill >= HEALTHY_FILL
+                                                            and found[0].roundness >= HEALTHY_ROUNDNESS):
                     self._weak_since = None
                     return found
                 # Only part of a ball: good for a while, but a track made of parts alone ends after
