@@ -25,6 +25,7 @@ MIN_PARTIAL_FILL = 0.4  # share of the inner disc a partly hidden ball must fill
 ACQUIRE_GAP = 0.045  # s: longest frame interval over which two sightings confirm a new track (25 fps and up)
 ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical
 CONFIDENT_RUN = 3
+ELSEWHERE_EVERY = 3  # frames between searches of the whole field for a whole ball while the track is weak
 HEALTHY_FILL, HEALTHY_ROUNDNESS = 0.75, 0.8  # or a single frame this filled and round  # ball-like frames in a row that make a track on partial blobs healthy again
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
@@ -94,6 +95,7 @@ class BallTracker:
         self._weak_since: Optional[float] = None
         self._confident_run = 0
         self._misses = 0  # frames since the last detection
+        self._weak_frames = 0
         self._pending: Optional[tuple[float, float, float]] = None  # (t, u, v) of an unconfirmed new track
         self._radius_grid = np.ones((1, 1))
         self._search_scale = 1.0
@@ -236,7 +238,10 @@ class BallTracker:
                 # Not a whole, round ball where one is expected: a ball behind a rod or a foot, or a figure of
                 # the ball's colour that the track slid onto when the ball was picked up. A whole ball
                 # elsewhere on the field settles it.
-                elsewhere = self._solid_elsewhere(bgr, found[0])
+                # (Looked for every few frames only: a whole-field search costs as much as tracking.)
+                self._weak_frames += 1
+                elsewhere = (self._solid_elsewhere(bgr, found[0]) if self._weak_frames % ELSEWHERE_EVERY == 1
+                             else (None, None, None))
                 if elsewhere[0] is not None:
                     self.kalman.reset()
                     self._weak_since = None
