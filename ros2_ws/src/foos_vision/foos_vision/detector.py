@@ -241,7 +241,9 @@ class BallDetector:
             ratio = count / expected
             if ratio < 0.25:
                 continue
-            if ratio < 0.8:
+            if ratio < 0.8 or _ring_pixels(local, u, v, 1.25 * radius_px, 1.8 * radius_px) > 0.15 * expected:
+                # Partly hidden, or touching something of its colour (a figure): the pixels that are not the
+                # ball would pull a centroid; the outline's circular part holds the centre.
                 u, v = _fit_known_radius(local, u, v, radius_px)
             # Roundness from the second moments of the pixels near the centre: a streak or a bar is long.
             ys, xs = np.nonzero(local[max(0, int(v - 1.5 * radius_px)):int(v + 1.5 * radius_px) + 2,
