@@ -22,7 +22,7 @@ RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
 BAND_SEEDS_NEAR = False
 COAST_SPEED = 1.5  # m/s: the speed change a hit can give a hidden ball, for the gate while a track coasts
 MIN_PARTIAL_FILL = 0.4  # share of the inner disc a partly hidden ball must fill
-ACQUIRE_GAP = 0.045  # s: longest frame interval over which two sightings confirm a new track (25 fps and up)
+ACQUIRE_WINDOW = 0.1  # s: two sightings this close in time confirm a new track (25 fps, or a live feed dropping frames)
 ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical
 CONFIDENT_RUN = 3
 ELSEWHERE_EVERY = 3  # frames between searches of the whole field for a whole ball while the track is weak
@@ -272,7 +272,7 @@ class BallTracker:
         self._pending = (t, c.u, c.v)
         if self._solid(c, ACQUIRE_SOLID_RATIO):
             pending = (t, c.u, c.v)  # a whole, round, filled disc on its own needs no second look
-        elif pending is None or t - pending[0] > 1.5 * ACQUIRE_GAP:
+        elif pending is None or t - pending[0] > ACQUIRE_WINDOW:
             return None, None, None
         radius = self._radius_at_pixel(c.u, c.v)
         reach = radius + MAX_GATE * self.mapping.pixels_per_metre(self.pixel_to_table(c.u, c.v)) * min(1.0, (t - pending[0]) / 0.04)
