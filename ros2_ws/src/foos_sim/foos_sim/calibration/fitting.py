@@ -166,6 +166,9 @@ def fit_states(batch: SegmentBatch, theta: np.ndarray, states0: np.ndarray | Non
     return fit(batch, (), theta, states0, max_nfev=20)
 
 
+MAX_DENT_DEPTH = 0.006  # m: the matched filter's depth limit (dents worth naming are 1-4 mm)
+
+
 def _dent_gains(path, w, tau, h, residual, centres, radii):
     """Matched-filter gain and depth of each (centre, radius) candidate."""
     s0_all, s1_all, s2_all = w.sum(1), (w * tau).sum(1), (w * tau**2).sum(1)
@@ -198,10 +201,14 @@ def _dent_gains(path, w, tau, h, residual, centres, radii):
             resp = resp - a0[:, :, None, :] - a1[:, :, None, :] * tau[None, None, :, None]
             num = np.sum(resp * res[None], axis=(1, 2, 3))
             den = np.sum(wr * resp**2, axis=(1, 2, 3))
-            gain = np.where(den > 0, num**2 / np.maximum(den, 1e-30), 0.0)
+            # Depth limited to what a table can have: an unlimited linear depth lets a spot where a
+            # few segments misfit for another reason (a slide after a bounce) outbid the real dent
+            # with an absurd 2 cm bump.
+            depth = np.clip(num / np.maximum(den, 1e-30), -MAX_DENT_DEPTH, MAX_DENT_DEPTH)
+            gain = np.where(den > 0, 2 * depth * num - depth**2 * den, 0.0)
             k = int(np.argmax(gain))
             if gain[k] > best[1]:
-                best = (np.array([c[k, 0], c[k, 1], radius, num[k] / den[k]]), float(gain[k]))
+                best = (np.array([c[k, 0], c[k, 1], radius, depth[k]]), float(gain[k]))
     return best
 
 

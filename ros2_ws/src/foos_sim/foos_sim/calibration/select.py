@@ -141,11 +141,18 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
             progress(f"held-out check of {name}")
             rss, thetas = held.score(tuple(chosen + [name]), candidate.theta, base_thetas,
                                      new_dent=name == "surface_dent" and not theta0[8])
-            fold_drops = [(b - r) / sigma2 for b, r in zip(base_rss, rss)]
+            # Evidence in units of what the extended model still leaves unexplained, when that is more than
+            # the frame-to-frame noise: a camera's detections carry slowly varying errors (a ball partly
+            # hidden under a rod is seen off centre for several frames) that second differences do not
+            # see, and a local effect can soak up a few of them in one fold.
+            dof = max(1, candidate.nres - 4 * batch.n - len(free_indices(chosen + [name])))
+            scale2 = max(sigma2, candidate.rss / dof)
+            fold_drops = [(b - r) / scale2 for b, r in zip(base_rss, rss)]
             info = {
                 "held_out_error_drop_noise_variances": round(float(sum(fold_drops)), 1),
                 "per_fold": [round(float(d), 1) for d in fold_drops],
-                "in_sample_error_drop_noise_variances": round(float((current.rss - candidate.rss) / sigma2), 1),
+                "in_sample_error_drop_noise_variances": round(float((current.rss - candidate.rss) / scale2), 1),
+                "residual_scatter_over_noise": round(float(np.sqrt(scale2 / sigma2)), 2),
             }
             info["material"] = bool(material(name, candidate.theta, theta0))
             total = sum(fold_drops)
