@@ -60,7 +60,8 @@ def test_video_source_to_tracker_node_stamps_are_capture_times(overhead_video, t
         while time.monotonic() < end and node.count_publishers("/ball/detection") == 0:
             executor.spin_once(timeout_sec=0.1)
         assert node.count_publishers("/ball/detection") == 1, (tmp_path / "tracker.log").read_text()
-        source = spawn(domain, "video_source", f"source:={overhead_video}", "start_time:=50.0", log=logs[1])
+        source = spawn(domain, "video_source", f"source:={overhead_video}", "start_time:=50.0",
+                       "wait_for_subscribers:=1", log=logs[1])
         end = time.monotonic() + 40
         while time.monotonic() < end and source.poll() is None:
             executor.spin_once(timeout_sec=0.05)

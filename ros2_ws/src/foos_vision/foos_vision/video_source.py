@@ -30,6 +30,10 @@ class VideoSource(Node):
         self.declare_parameter("rate_factor", 1.0)  # 1 = real time, 0 = as fast as possible
         self.declare_parameter("loop", False)
         self.declare_parameter("frame_id", "camera")
+        # A file played before its consumers have matched loses its first frames, as `ros2 bag play`
+        # does; wait_for_subscribers holds the first frame until that many subscribers are there.
+        self.declare_parameter("wait_for_subscribers", 0)
+        self.declare_parameter("wait_timeout", 30.0)
         source = self.get_parameter("source").value
         if not source:
             raise VisionError("set the `source` parameter to a video file or a camera index (-p source:=game.mp4)")
@@ -40,13 +44,24 @@ class VideoSource(Node):
         self.rate_factor = float(self.get_parameter("rate_factor").value)
         self.loop = bool(self.get_parameter("loop").value)
         self.frame_id = self.get_parameter("frame_id").value
+        self.wait_for_subscribers = int(self.get_parameter("wait_for_subscribers").value)
+        self.wait_timeout = float(self.get_parameter("wait_timeout").value)
         self.reader = VideoReader(self.source, self.fps)
         self.publisher = self.create_publisher(Image, "/camera/image_raw", 10)
         self.published = 0
         self.get_logger().info(f"publishing {source} ({self.reader.width}x{self.reader.height} @ {self.reader.fps:g} fps)")
 
+    def wait_for_consumers(self) -> None:
+        deadline = time.monotonic() + self.wait_timeout
+        while rclpy.ok() and self.publisher.get_subscription_count() < self.wait_for_subscribers:
+            if time.monotonic() > deadline:
+                raise VisionError(f"no {self.wait_for_subscribers} subscriber(s) on /camera/image_raw within "
+                                  f"{self.wait_timeout:g} s (wait_for_subscribers)")
+            rclpy.spin_once(self, timeout_sec=0.05)
+
     def run(self) -> None:
         """Publish every frame at its time; returns at the end of the file (unless looping)."""
+        self.wait_for_consumers()
         offset = 0.0
         while rclpy.ok():
             wall_start = time.monotonic()
