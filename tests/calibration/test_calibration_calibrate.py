@@ -83,3 +83,16 @@ def test_two_effects_through_the_command_and_loop_closure(tmp_path, ros2_run):
     closure = calibrate(rec.t, rec.position, "table", tmp_path / "closure",
                         Options(figures=False, max_starts=10, base=report["params_file"]))
     assert closure["effects"] == [], closure["effects"]
+
+
+@pytest.mark.timeout(240)
+def test_a_hidden_dent_is_found(tmp_path):
+    """A random dent (seeded) is named, at the right place and depth (the benchmark's targets)."""
+    rng = np.random.default_rng(1082)
+    hidden = gen.random_effect("surface_dent", rng)  # 3.3 mm deep, radius 12 cm, off centre
+    report = run([hidden], seed=1005, tmp_path=tmp_path)
+    found = {e["name"]: e["params"] for e in report["effects"]}
+    assert set(found) == {"surface_dent"}, f"hid {hidden}, found {report['effects']}"
+    dent, truth = found["surface_dent"], hidden["params"]
+    assert math.hypot(dent["x"] - truth["x"], dent["y"] - truth["y"]) <= 0.02, (hidden, dent)
+    assert abs(dent["depth"] - truth["depth"]) <= 0.25 * truth["depth"], (hidden, dent)
