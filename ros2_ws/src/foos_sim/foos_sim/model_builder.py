@@ -304,9 +304,7 @@ def build_mjcf(params_file: str | Path | None = None, params: dict | None = None
 
 def load_model(params_file: str | Path | None = None) -> mujoco.MjModel:
     """The nominal table (or the one a calibrated parameter file describes) as a MuJoCo model."""
-    model = mujoco.MjModel.from_xml_string(build_mjcf(params_file))
-    _check_actuator_order(model)
-    return model
+    return model_from_params(load_params(params_file))
 
 
 def model_from_params(params: dict) -> mujoco.MjModel:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -92,10 +92,7 @@ class SimRunner:
         self.config = config
         self.rng = np.random.default_rng(config.seed)
         self.score = {"home": 0, "away": 0}
-        self._last_command = {"home": -math.inf, "away": -math.inf}
-        self._rest_since: Optional[float] = None
-        self._timers = _Timers()
-        self.reset()
+        self.reset()  # sets the timers, the watchdog's last commands and the rest detector
 
     # --- commands ------------------------------------------------------------------------------
     def command(self, team: str, values: Sequence[float]) -> np.ndarray:
