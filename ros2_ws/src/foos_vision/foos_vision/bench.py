@@ -69,6 +69,7 @@ def evaluate(video: Path, case: Case) -> dict:
     import cv2
 
     from .camera import load_intrinsics
+    from .backfill import OfflineTracker
     from .markers import load_markers
     from .render import read_truth
     from .tracker import BallTracker, TrackerConfig, choose_colour
@@ -91,15 +92,16 @@ def evaluate(video: Path, case: Case) -> dict:
         pass
     reader.close()
     decode_time = time.perf_counter() - decode_start
-    detections = {}
-    kalman_v = {}
+    offline = OfflineTracker(tracker, reader.fps)
+    online = set()
     start = time.perf_counter()
     for k, frame in enumerate(frames):
-        d = tracker.process(frame, k / reader.fps)
-        if d is not None:
-            detections[k] = d
-            kalman_v[k] = tracker.kalman.state.x[2:4].copy()
+        if offline.process(k, k / reader.fps, frame) is not None:
+            online.add(k)
+    offline.finish()
     track_time = time.perf_counter() - start
+    detections = {r.index: r.detection for r in offline.results()}
+    kalman_v = {r.index: r.state[2:4] for r in offline.results()}
     n = len(frames)
     visible = np.nan_to_num(truth["visible"][:n], nan=0.0)
     in_view = ~np.isnan(truth["x"][:n]) & (visible > 0)
@@ -111,6 +113,7 @@ def evaluate(video: Path, case: Case) -> dict:
     half = np.nonzero((visible >= 0.5) & on_table)[0]
     hidden = np.nonzero(visible <= 0.0)[0]
     recall = float(np.mean([k in detections for k in half])) if len(half) else math.nan
+    online_recall = float(np.mean([k in online for k in half])) if len(half) else math.nan
     false = sum(k in detections for k in hidden)
     keys = sorted(detections)
     t = np.array([detections[k].t for k in keys])
@@ -128,7 +131,8 @@ def evaluate(video: Path, case: Case) -> dict:
         "case": case.name, "frames": n, "detections": len(detections),
         "median_mm": float(np.median(errors)) if len(errors) else math.nan,
         "p95_mm": float(np.percentile(errors, 95)) if len(errors) else math.nan,
-        "recall": recall, "half_visible_frames": len(half),
+        "recall": recall, "online_recall": online_recall, "half_visible_frames": len(half),
+        "backfilled": offline.backfilled,
         "false_per_1000": 1000.0 * false / len(hidden) if len(hidden) else math.nan, "hidden_frames": len(hidden),
         "speed_err_cd": speed_error(v_cd), "speed_err_kf": speed_error(v_kf),
         "fps_track": n / track_time, "fps_with_decode": n / (track_time + decode_time),
@@ -148,13 +152,14 @@ def load_intrinsics_from_camera(path: Path):
 
 
 def format_row(r: dict) -> str:
-    return (f"{r['case']:<28} {r['frames']:>5} {r['median_mm']:>7.2f} {r['p95_mm']:>7.2f} {100 * r['recall']:>7.1f} "
+    return (f"{r['case']:<28} {r['frames']:>5} {r['half_visible_frames']:>5} {r['hidden_frames']:>5} "
+            f"{r['median_mm']:>7.2f} {r['p95_mm']:>7.2f} {100 * r['recall']:>7.1f} {100 * r['online_recall']:>6.1f} "
             f"{r['false_per_1000']:>8.1f} {r['speed_err_cd']:>7.3f} {r['speed_err_kf']:>7.3f} "
             f"{r['fps_track']:>7.0f} {r['fps_with_decode']:>7.0f} {r['airborne_frames']:>5}  {r['colour']}")
 
 
-HEADER = (f"{'case':<28} {'frames':>5} {'med mm':>7} {'p95 mm':>7} {'recall%':>7} {'false/1k':>8} "
-          f"{'|dv|cd':>7} {'|dv|kf':>7} {'fps':>7} {'fps+dec':>7} {'air':>5}  colour")
+HEADER = (f"{'case':<28} {'frames':>5} {'half':>5} {'hid':>5} {'med mm':>7} {'p95 mm':>7} {'recall%':>7} {'onl%':>6} "
+          f"{'false/1k':>8} {'|dv|cd':>7} {'|dv|kf':>7} {'fps':>7} {'fps+dec':>7} {'air':>5}  colour")
 
 
 def run(duration: float, cases: list[Case], workdir: Path, seed: int = 1, echo=print, reuse: bool = False) -> list[dict]:

@@ -17,6 +17,10 @@ import cv2
 import numpy as np
 
 BALL_COLOR_NAMES = ("white", "yellow", "orange", "red")
+# A blob merged with something of the ball's colour holds a ball only where it is at least this thick (radii
+# of the largest disc inside). A ball half hidden by a rod it touches keeps half its radius; a rod or a line
+# is a few pixels thick.
+MERGED_MIN_PEAK = 0.45
 
 
 @dataclass(frozen=True)
@@ -226,7 +230,7 @@ class BallDetector:
                 # blob is thickest.
                 dist = cv2.distanceTransform(local, cv2.DIST_L2, 3)
                 peak = float(dist.max())
-                if peak < 0.6 * radius_px:
+                if peak < MERGED_MIN_PEAK * radius_px:
                     continue
                 py, px = np.unravel_index(int(np.argmax(dist)), dist.shape)
                 u, v = float(px), float(py)

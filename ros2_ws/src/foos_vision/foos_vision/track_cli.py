@@ -20,6 +20,10 @@ A frame where the ball is not found gives no detection. The tags of the markers 
 homography to the table (refitted every --tag-interval frames; the last good fit is kept while tags
 are hidden). Optional outputs: the paper's CSVs and an annotated video or PNG.
 
+Offline, each new track is also followed backward in time from its first detections, over the
+frames just before it, to recover a ball that came out half hidden from under a rod or a foot
+before the track started (tracker_node, online, cannot do this; --no-backfill tracks as it does).
+
 Examples:
   track_video game.mp4 --markers table_markers.yaml --out game_bag
   track_video game.mp4 --markers m.yaml --out bag --ball-color yellow --intrinsics cam.yaml \\
@@ -46,6 +50,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--csv-pixels", help="also write t,u,v (pixels) of every detection")
     p.add_argument("--csv-metres", help="also write t,x,y,vx,vy (m, m/s; central differences, as in the paper)")
     p.add_argument("--annotate", help="also write what the tracker saw: a video (.mp4) or the last frame with the track (.png)")
+    p.add_argument("--no-backfill", action="store_true",
+                   help="forward pass only, as tracker_node tracks live (no backward search before a track's start)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -57,6 +63,7 @@ def track_video(args: argparse.Namespace) -> int:
     from foos_bag.bag_io import BagWriter, write_ball_detections, write_ball_states
 
     from .annotate import Annotator
+    from .backfill import OfflineTracker
     from .camera import load_intrinsics
     from .markers import load_markers
     from .tracker import BallTracker, TrackerConfig, choose_colour
@@ -84,9 +91,9 @@ def track_video(args: argparse.Namespace) -> int:
         probe.close()
     reader = VideoReader(args.video, args.fps)
     tracker = BallTracker(layout, config)
+    offline = OfflineTracker(tracker, reader.fps, backward=not args.no_backfill)
     annotator = Annotator(tracker) if args.annotate else None
     writer = None
-    detections, states = [], []
     last_frame = None
     interrupted = False
     started = time.perf_counter()
@@ -94,11 +101,7 @@ def track_video(args: argparse.Namespace) -> int:
         for index, t, frame in tqdm(reader.frames(), total=reader.declared_frames or None, desc="track_video",
                                     unit="frame", disable=args.quiet):
             stamp = t + args.start_time
-            detection = tracker.process(frame, stamp)
-            if detection is not None:
-                detections.append(detection)
-                state = tracker.kalman.state
-                states.append((stamp, state.x.copy()))
+            detection = offline.process(index, stamp, frame)
             if annotator is not None:
                 drawn = annotator.draw(frame, detection)
                 if args.annotate.lower().endswith(".mp4"):
@@ -113,6 +116,9 @@ def track_video(args: argparse.Namespace) -> int:
         reader.close()
         if writer is not None:
             writer.release()
+    offline.finish()
+    tracked = offline.results()
+    detections = [r.detection for r in tracked]
     elapsed = time.perf_counter() - started
     stats = tracker.stats
     if tracker.stats.tag_fits == 0:
@@ -126,8 +132,8 @@ def track_video(args: argparse.Namespace) -> int:
         raise VisionError(f"no ball found in {stats.frames} frames (tags were found; try --ball-color)")
     t = np.array([d.t for d in detections])
     xyz = np.array([[d.x, d.y, d.z] for d in detections])
-    velocity = np.array([[s[1][2], s[1][3], 0.0] for s in states])
-    filtered = np.array([[s[1][0], s[1][1], d.z] for s, d in zip(states, detections)])
+    velocity = np.array([[r.state[2], r.state[3], 0.0] for r in tracked])
+    filtered = np.array([[r.state[0], r.state[1], r.detection.z] for r in tracked])
     with BagWriter(args.out, storage=args.storage) as bag:
         write_ball_detections(bag, t, xyz)
         write_ball_states(bag, t, filtered, velocity)
@@ -143,7 +149,8 @@ def track_video(args: argparse.Namespace) -> int:
         cv2.polylines(last_frame, [np.round(points).astype(np.int32)], False, (0, 200, 255), 1, cv2.LINE_AA)
         cv2.imwrite(args.annotate, last_frame)
     print(f"track_video: {len(detections)} detections in {stats.frames} frames ({len(detections) / stats.frames:.0%}), "
-          f"{stats.tag_fits} tag fits, colour {tracker.colour.name}, {stats.frames / elapsed:.0f} frames/s -> {args.out}")
+          f"{stats.tag_fits} tag fits, colour {tracker.colour.name}, {stats.frames / elapsed:.0f} frames/s -> {args.out}"
+          + (f" ({offline.backfilled} found by the backward pass before tracks started)" if offline.backfilled else ""))
     for tag_id, error in sorted(stats.dropped_tags.items()):
         print(f"track_video: warning: tag {tag_id} is {error * 1000:.0f} mm from where the markers file puts it "
               f"(relative to the other tags); it was left out of the fit - measure it again", file=sys.stderr)

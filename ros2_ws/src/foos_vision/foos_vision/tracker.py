@@ -22,9 +22,14 @@ RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
 BAND_SEEDS_NEAR = False
 COAST_SPEED = 1.5  # m/s: the speed change a hit can give a hidden ball, for the gate while a track coasts
 MIN_PARTIAL_FILL = 0.4  # share of the inner disc a partly hidden ball must fill
+MIN_SCORE = 0.2  # candidate score (visible share x roundness) below which a blob is not a ball
+# Near a sure prediction a half ball under a rod scores lower (a half disc is 0.5 round, shading takes more of
+# its pixels): there it may score this little, if its centre lies within PARTIAL_NEAR radii of the prediction.
+PARTIAL_MIN_SCORE, PARTIAL_NEAR = 0.1, 0.6
 ACQUIRE_WINDOW = 0.1  # s: two sightings this close in time confirm a new track (25 fps, or a live feed dropping frames)
 ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical
 CONFIDENT_RUN = 3
+HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.45, 0.5  # field search at half resolution: blobs worth a full-resolution look
 ELSEWHERE_EVERY = 3  # frames between searches of the whole field for a whole ball while the track is weak
 HEALTHY_FILL, HEALTHY_ROUNDNESS = 0.75, 0.8  # or a single frame this filled and round  # ball-like frames in a row that make a track on partial blobs healthy again
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
@@ -288,31 +293,37 @@ class BallTracker:
         """A whole ball in plain view: nearly the full disc, round, filled, and not part of a larger blob."""
         return min_ratio <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85 and c.spill <= 0.15
 
-    def _solid_elsewhere(self, bgr: np.ndarray, tracked: Candidate):
-        """A whole ball away from the tracked blob, found with the shading-tolerant colour (or nothing)."""
-        radius = self._radius_at_pixel(tracked.u, tracked.v)
-        loose = [c for c in self._search_field(bgr) if c.area_ratio >= 0.4 and c.roundness >= 0.6
-                 and math.hypot(c.u - tracked.u, c.v - tracked.v) >= 3 * radius and not self._fixture(c, count=False)]
-        for c in sorted(loose, key=lambda c: -c.score)[:3]:
+    def _solid_elsewhere(self, bgr: np.ndarray, tracked: Optional[Candidate]):
+        """A whole ball away from the tracked blob (or anywhere, without one), found with the
+        shading-tolerant colour (or nothing)."""
+        candidates = [c for c in self._search_field(bgr) if c.area_ratio >= 0.4 and c.roundness >= 0.6
+                      and not self._fixture(c, count=False)]
+        if tracked is not None:
+            radius = self._radius_at_pixel(tracked.u, tracked.v)
+            candidates = [c for c in candidates if math.hypot(c.u - tracked.u, c.v - tracked.v) >= 3 * radius]
+        for c in sorted(candidates, key=lambda c: -c.score)[:3]:
             r = self._radius_at_pixel(c.u, c.v)
             found = self._search_window(bgr, np.array([c.u, c.v]), 2 * r + 3, 2 * r + 3, use_band=True)
-            if found[0] is not None and self._solid(found[0]) and found[0].score >= tracked.score + 0.15:
+            if (found[0] is not None and self._solid(found[0])
+                    and (tracked is None or found[0].score >= tracked.score + 0.15)):
                 return found
         return None, None, None
 
     def _best_on_field(self, bgr: np.ndarray):
-        good = [c for c in self._search_field(bgr) if self._confident(c) and not self._fixture(c)]
-        if not good:
-            return None, None, None
-        best = max(good, key=lambda c: c.score)
+        candidates = self._search_field(bgr)
         if self._search_scale == 1.0:
-            return best, self._field_lab, self._roi
-        # Found at half resolution: the centre comes from the full-resolution pixels around it.
-        radius = self._radius_at_pixel(best.u, best.v)
-        found = self._search_window(bgr, np.array([best.u, best.v]), 2 * radius + 3, 2 * radius + 3)
-        if found[0] is None or not self._confident(found[0]):
-            return None, None, None
-        return found
+            good = [c for c in candidates if self._confident(c) and not self._fixture(c)]
+            return (max(good, key=lambda c: c.score), self._field_lab, self._roi) if good else (None, None, None)
+        # Found at half resolution, where a ball of a few pixels looks less round and smaller than it is: the
+        # blobs that nearly pass are measured again on the full-resolution pixels around them, and judged there.
+        near_misses = [c for c in candidates if c.area_ratio >= HALF_RES_RATIO and c.roundness >= HALF_RES_ROUNDNESS
+                       and not self._fixture(c)]
+        for c in sorted(near_misses, key=lambda c: -c.score)[:3]:
+            radius = self._radius_at_pixel(c.u, c.v)
+            found = self._search_window(bgr, np.array([c.u, c.v]), 2 * radius + 3, 2 * radius + 3)
+            if found[0] is not None and self._confident(found[0]):
+                return found
+        return None, None, None
 
     def _search_field(self, bgr: np.ndarray) -> list[Candidate]:
         """Candidates anywhere on the field; at half resolution when the ball is big enough (4x cheaper)."""
@@ -333,7 +344,9 @@ class BallTracker:
         return candidates
 
     def _search_window(self, bgr: np.ndarray, centre: np.ndarray, gate: float, half: float, use_band: bool = False,
-                       band_seeds: bool = False):
+                       band_seeds: bool = False, partial_reach: float = 0.0):
+        """The best candidate within gate px of centre, searched in a square of half width half. Blobs that
+        score too low for a ball count only within partial_reach px (a half ball where one is expected)."""
         h, w = bgr.shape[:2]
         x0, y0 = max(0, int(centre[0] - half)), max(0, int(centre[1] - half))
         x1, y1 = min(w, int(centre[0] + half) + 1), min(h, int(centre[1] + half) + 1)
@@ -342,7 +355,9 @@ class BallTracker:
         roi = (x0, y0, x1, y1)
         candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._region,
                                                       use_band=use_band, band_seeds=band_seeds)
-        near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate and c.score > 0.2]
+        near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate
+                and (c.score > MIN_SCORE or (c.score > PARTIAL_MIN_SCORE
+                                             and math.hypot(c.u - centre[0], c.v - centre[1]) <= partial_reach))]
         if not near:
             return None, lab, roi
         best = min(near, key=lambda c: math.hypot(c.u - centre[0], c.v - centre[1]) / gate - c.score)
@@ -365,11 +380,13 @@ class BallTracker:
         gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
         centre = self.table_to_pixel(state.x[:2])
         found, lab, roi = self._search_window(bgr, centre, gate, gate + 2 * radius + 2, use_band=True,
-                                              band_seeds=BAND_SEEDS_NEAR)
+                                              band_seeds=BAND_SEEDS_NEAR,
+                                              partial_reach=PARTIAL_NEAR * radius + 2.0 * sigma)
+        offset = math.inf if found is None else math.hypot(found.u - centre[0], found.v - centre[1])
         if found is not None and not self._confident(found):
             # A partly hidden ball is followed only where it is expected; further out, only a whole ball
             # counts, so a figure of the ball's colour cannot take the track over.
-            if math.hypot(found.u - centre[0], found.v - centre[1]) > min(gate, 2.0 * radius + 2 * sigma + 2.0):
+            if offset > min(gate, 2.0 * radius + 2 * sigma + 2.0):
                 return None, lab, roi
             # After the ball has been lost for a few frames, the outline of a figure (its edge pixels blend
             # into the ball's hue) must not restart the track: it is a thin ring with little inside, while a
