@@ -20,6 +20,7 @@ from .tracker import MIN_PARTIAL_FILL, WEAK_TRACK_LIMIT, BallTracker, Detection
 from .velocity import ConstantVelocityKalman
 
 SEED_DETECTIONS = 3  # detections of a new track that give the backward search its velocity
+MAX_SPILL = 0.15  # blob pixels just outside the disc / disc area: more, and the ball touches something of its colour
 
 
 @dataclass
@@ -99,13 +100,14 @@ class OfflineTracker:
             # first frame without the ball. Before a gap the ball's path is unknown (the serve, a kick), and a
             # figure of its colour there would pass for a half-hidden ball.
             candidate, _, _ = tr._search_near(frame, state, 0.0, 0)
-            if candidate is None:
+            # Hollow (a figure's outline) or merged with something of its colour (its centre pulled off): not
+            # a ball to start a track's history with.
+            if candidate is None or candidate.fill < MIN_PARTIAL_FILL or candidate.spill > MAX_SPILL:
                 break
             if not (tr._solid(candidate) or tr._confident(candidate)):
-                # Parts of a ball alone: only with a solid part (a figure's outline is hollow, and a sliver's
-                # centre is a guess), and for no longer than the forward tracker allows them.
+                # Parts of a ball alone, for no longer than the forward tracker allows them.
                 weak_since = t if weak_since is None else weak_since
-                if candidate.fill < MIN_PARTIAL_FILL or weak_since - t > WEAK_TRACK_LIMIT:
+                if weak_since - t > WEAK_TRACK_LIMIT:
                     break
             else:
                 weak_since = None
