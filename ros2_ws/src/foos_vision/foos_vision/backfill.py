@@ -16,11 +16,10 @@ from typing import Optional
 import numpy as np
 
 from .markers import BALL_CENTRE_HEIGHT
-from .tracker import MIN_PARTIAL_FILL, WEAK_TRACK_LIMIT, BallTracker, Detection
+from .tracker import MAX_SPILL, MIN_PARTIAL_FILL, WEAK_TRACK_LIMIT, BallTracker, Detection
 from .velocity import ConstantVelocityKalman
 
 SEED_DETECTIONS = 3  # detections of a new track that give the backward search its velocity
-MAX_SPILL = 0.15  # blob pixels just outside the disc / disc area: more, and the ball touches something of its colour
 
 
 @dataclass

@@ -22,10 +22,12 @@ RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
 BAND_SEEDS_NEAR = False
 COAST_SPEED = 1.5  # m/s: the speed change a hit can give a hidden ball, for the gate while a track coasts
 MIN_PARTIAL_FILL = 0.4  # share of the inner disc a partly hidden ball must fill
+MAX_SPILL = 0.15  # blob pixels 1.25-1.8 radii out / disc area: more, and the blob is merged with something of its colour
 MIN_SCORE = 0.2  # candidate score (visible share x roundness) below which a blob is not a ball
 # Near a sure prediction a half ball under a rod scores lower (a half disc is 0.5 round, shading takes more of
-# its pixels): there it may score this little, if its centre lies within PARTIAL_NEAR radii of the prediction.
-PARTIAL_MIN_SCORE, PARTIAL_NEAR = 0.1, 0.6
+# its pixels): there it may score this little, if its centre lies within PARTIAL_NEAR radii of the prediction
+# and it shows at least PARTIAL_MIN_RATIO of the disc (a thinner sliver's centre is a guess).
+PARTIAL_MIN_SCORE, PARTIAL_NEAR, PARTIAL_MIN_RATIO = 0.1, 0.6, 0.28
 ACQUIRE_WINDOW = 0.1  # s: two sightings this close in time confirm a new track (25 fps, or a live feed dropping frames)
 ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical
 CONFIDENT_RUN = 3
@@ -254,8 +256,11 @@ class BallTracker:
                     return elsewhere
                 # A figure's outline passes for a ball now and then, a ball in view does so frame after
                 # frame: only a run of ball-like frames makes a track healthy again.
-                self._confident_run = self._confident_run + 1 if self._confident(found[0]) else 0
-                if self._confident_run >= CONFIDENT_RUN or (self._confident(found[0]) and found[0].fill >= HEALTHY_FILL
+                # A ball merged with something of its colour is no proof either: the end of a red figure's
+                # bar is a ball-sized, roundish blob that goes on past the ball's outline.
+                ball_like = self._confident(found[0]) and found[0].spill <= MAX_SPILL
+                self._confident_run = self._confident_run + 1 if ball_like else 0
+                if self._confident_run >= CONFIDENT_RUN or (ball_like and found[0].fill >= HEALTHY_FILL
                                                             and found[0].roundness >= HEALTHY_ROUNDNESS):
                     self._weak_since = None
                     return found
@@ -291,7 +296,7 @@ class BallTracker:
     @staticmethod
     def _solid(c: Candidate, min_ratio: float = 0.75) -> bool:
         """A whole ball in plain view: nearly the full disc, round, filled, and not part of a larger blob."""
-        return min_ratio <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85 and c.spill <= 0.15
+        return min_ratio <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85 and c.spill <= MAX_SPILL
 
     def _solid_elsewhere(self, bgr: np.ndarray, tracked: Optional[Candidate]):
         """A whole ball away from the tracked blob (or anywhere, without one), found with the
@@ -309,10 +314,15 @@ class BallTracker:
                 return found
         return None, None, None
 
+    def _starts_track(self, c: Candidate) -> bool:
+        """Confident, and not merged with something of its colour: the end of a figure's bar is a ball-sized,
+        roundish blob too, but it goes on past the ball's outline."""
+        return self._confident(c) and c.spill <= MAX_SPILL
+
     def _best_on_field(self, bgr: np.ndarray):
         candidates = self._search_field(bgr)
         if self._search_scale == 1.0:
-            good = [c for c in candidates if self._confident(c) and not self._fixture(c)]
+            good = [c for c in candidates if self._starts_track(c) and not self._fixture(c)]
             return (max(good, key=lambda c: c.score), self._field_lab, self._roi) if good else (None, None, None)
         # Found at half resolution, where a ball of a few pixels looks less round and smaller than it is: the
         # blobs that nearly pass are measured again on the full-resolution pixels around them, and judged there.
@@ -321,7 +331,7 @@ class BallTracker:
         for c in sorted(near_misses, key=lambda c: -c.score)[:3]:
             radius = self._radius_at_pixel(c.u, c.v)
             found = self._search_window(bgr, np.array([c.u, c.v]), 2 * radius + 3, 2 * radius + 3)
-            if found[0] is not None and self._confident(found[0]):
+            if found[0] is not None and self._starts_track(found[0]):
                 return found
         return None, None, None
 
@@ -356,7 +366,7 @@ class BallTracker:
         candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._region,
                                                       use_band=use_band, band_seeds=band_seeds)
         near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate
-                and (c.score > MIN_SCORE or (c.score > PARTIAL_MIN_SCORE
+                and (c.score > MIN_SCORE or (c.score > PARTIAL_MIN_SCORE and c.area_ratio >= PARTIAL_MIN_RATIO
                                              and math.hypot(c.u - centre[0], c.v - centre[1]) <= partial_reach))]
         if not near:
             return None, lab, roi
@@ -383,6 +393,12 @@ class BallTracker:
                                               band_seeds=BAND_SEEDS_NEAR,
                                               partial_reach=PARTIAL_NEAR * radius + 2.0 * sigma)
         offset = math.inf if found is None else math.hypot(found.u - centre[0], found.v - centre[1])
+        if found is not None and found.spill > MAX_SPILL and (coast_frames > 0 or offset > PARTIAL_NEAR * radius
+                                                                + 2.0 * sigma):
+            # Merged with something of its colour (a ball against a figure, or a figure's bar alone): its centre
+            # is pulled toward the figure, so it only carries a track that has not lost the ball, and only
+            # where the ball is expected. A coasting track would slide onto the figure.
+            return None, lab, roi
         if found is not None and not self._confident(found):
             # A partly hidden ball is followed only where it is expected; further out, only a whole ball
             # counts, so a figure of the ball's colour cannot take the track over.
