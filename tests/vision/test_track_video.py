@@ -58,6 +58,28 @@ def test_track_video_matches_truth_and_stamps_frames(overhead_video, tmp_path):
     assert (tmp_path / "seen.png").stat().st_size > 10_000
 
 
+@pytest.mark.timeout(120)
+def test_backward_pass_only_adds_frames_with_the_ball(overhead_video, tmp_path):
+    """The offline bag holds every frame of the forward pass (what tracker_node publishes, --no-backfill)
+    and, from the backward pass, only frames where the ball is on the table, near the truth."""
+    markers = markers_of(overhead_video)
+    online = ros2_run("track_video", str(overhead_video), "--markers", markers, "--out", str(tmp_path / "online"),
+                      "--no-backfill", "--quiet")
+    offline = ros2_run("track_video", str(overhead_video), "--markers", markers, "--out", str(tmp_path / "offline"),
+                       "--quiet")
+    assert online.returncode == 0 and offline.returncode == 0, online.stderr + offline.stderr
+    truth = truth_of(overhead_video)
+    frames = {}
+    for name in ("online", "offline"):
+        detections = read_ball_detections(tmp_path / name)
+        frames[name] = dict(zip(np.round(detections.t * 60).astype(int), detections.position[:, :2]))
+    assert set(frames["online"]) <= set(frames["offline"])
+    assert np.all(np.diff(read_ball_detections(tmp_path / "offline").t) > 0)  # in frame order
+    for k in set(frames["offline"]) - set(frames["online"]):
+        assert truth["visible"][k] > 0, k
+        assert np.hypot(*(frames["offline"][k] - (truth["x"][k], truth["y"][k]))) < 0.008, k
+
+
 def one_line_error(result, *words):
     assert result.returncode != 0
     lines = result.stderr.strip().splitlines()
@@ -128,7 +150,8 @@ def test_truncated_video_keeps_the_frames_before(overhead_video, tmp_path):
 
 
 def test_help_answers_the_users_questions():
-    for exe, words in (("track_video", ["--markers", "--ball-color", "--start-time", "--csv-metres", "Exit status"]),
+    for exe, words in (("track_video", ["--markers", "--ball-color", "--start-time", "--csv-metres", "Exit status",
+                                        "--no-backfill", "tracker_node"]),
                        ("render_video", ["--params-file", "--scenario", "truth.csv", "--distortion", "--blur"]),
                        ("calibrate_camera", ["--board", "INNER"])):
         result = ros2_run(exe, "--help")
