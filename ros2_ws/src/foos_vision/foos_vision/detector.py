@@ -184,13 +184,16 @@ class BallDetector:
 
     def candidates(self, bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Callable[[float, float], float],
                    min_radius: float, region_mask: Optional[np.ndarray] = None, bridge_px: int = 0,
-                   use_band: bool = True, band_seeds: bool = False) -> tuple[list[Candidate], np.ndarray, np.ndarray]:
+                   use_band: bool = True, band_seeds: bool = False,
+                   fit_outline: bool = True) -> tuple[list[Candidate], np.ndarray, np.ndarray]:
         """Candidates inside roi = (x0, y0, x1, y1); radius_at(u, v) is the expected ball radius in pixels
         at a full-frame pixel. Also returns the roi's Lab image and colour mask.
 
         Blobs start from the Lab box. The hue band (shaded ball pixels) only completes a blob's disc when
         its centre is measured, unless band_seeds: a wooden frame or a dark figure can share the ball's hue
-        and saturation, so band pixels alone found a blob only where the caller expects the ball."""
+        and saturation, so band pixels alone found a blob only where the caller expects the ball.
+        fit_outline=False is a coarse search whose finds are measured again anyway: no known-radius fit
+        of partly hidden or merged blobs, and no fill or spill (left at 1 and 0)."""
         x0, y0, x1, y1 = roi
         lab = cv2.cvtColor(bgr[y0:y1, x0:x1], cv2.COLOR_BGR2Lab)
         box = self.model.box_mask(lab)
@@ -245,7 +248,8 @@ class BallDetector:
             ratio = count / expected
             if ratio < 0.25:
                 continue
-            if ratio < 0.8 or _ring_pixels(local, u, v, 1.25 * radius_px, 1.8 * radius_px) > 0.15 * expected:
+            if fit_outline and (ratio < 0.8
+                                or _ring_pixels(local, u, v, 1.25 * radius_px, 1.8 * radius_px) > 0.15 * expected):
                 # Partly hidden, or touching something of its colour (a figure): the pixels that are not the
                 # ball would pull a centroid; the outline's circular part holds the centre.
                 u, v = _fit_known_radius(local, u, v, radius_px)
@@ -256,8 +260,10 @@ class BallDetector:
             if len(xs) >= 5:
                 ev = np.linalg.eigvalsh(np.cov(np.stack([xs, ys]).astype(float)))
                 roundness = float(math.sqrt(max(ev[0], 1e-6) / max(ev[1], 1e-6)))
-            spill = _ring_pixels(local, u, v, 1.25 * radius_px, 1.8 * radius_px) / expected
-            fill = _ring_pixels(local, u, v, -1.0, 0.7 * radius_px) / max(1.0, math.pi * (0.7 * radius_px) ** 2)
+            spill, fill = 0.0, 1.0
+            if fit_outline:
+                spill = _ring_pixels(local, u, v, 1.25 * radius_px, 1.8 * radius_px) / expected
+                fill = _ring_pixels(local, u, v, -1.0, 0.7 * radius_px) / max(1.0, math.pi * (0.7 * radius_px) ** 2)
             u, v = u + wx0, v + wy0
             score = min(ratio, 1.0) * roundness - 0.5 * max(0.0, ratio - 1.3)
             found.append(Candidate(u + x0, v + y0, ratio, roundness, score, spill, fill))

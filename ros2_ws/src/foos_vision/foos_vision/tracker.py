@@ -346,9 +346,10 @@ class BallTracker:
         small = cv2.resize(bgr[y0:y1, x0:x1], None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
         h, w = small.shape[:2]
         region = self._region_small
+        # Every blob found here is measured again at full resolution before it counts: no outline fits.
         candidates, _, _ = self.detector.candidates(
             small, (0, 0, w, h), lambda u, v: s * self._radius_at_pixel(x0 + (u + 0.5) / s - 0.5, y0 + (v + 0.5) / s - 0.5),
-            s * self._min_radius, region, use_band=False)
+            s * self._min_radius, region, use_band=False, fit_outline=False)
         for c in candidates:
             c.u, c.v = x0 + (c.u + 0.5) / s - 0.5, y0 + (c.v + 0.5) / s - 0.5
         return candidates
