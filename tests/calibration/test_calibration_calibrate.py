@@ -30,7 +30,8 @@ TOLERANCE = {  # looser than the benchmark's targets: one 60 s trial, not a medi
 
 def run(effects, seed, tmp_path, **options):
     rec = gen.generate(effects, 60.0, seed)
-    return calibrate(rec.t, rec.position, "table", tmp_path / "out", Options(figures=False, max_starts=12, **options))
+    options = {"figures": False, "max_starts": 12, **options}
+    return calibrate(rec.t, rec.position, "table", tmp_path / "out", Options(**options))
 
 
 @pytest.mark.timeout(240)
@@ -38,7 +39,9 @@ def test_a_random_hidden_effect_is_found(tmp_path):
     rng = np.random.default_rng(2026)  # seeded: the same effect and magnitude every run
     name = str(rng.choice(EFFECT_NAMES))
     hidden = gen.random_effect(name, rng)
-    report = run([hidden], seed=int(rng.integers(1000)), tmp_path=tmp_path)
+    # Every start the recording has (about 40): softer walls only change a prediction whose next
+    # second holds a bounce, which a dozen starts may not show in their median.
+    report = run([hidden], seed=int(rng.integers(1000)), tmp_path=tmp_path, max_starts=60)
     found = {e["name"]: e["params"] for e in report["effects"]}
     assert set(found) == {name}, f"hid {hidden}, found {report['effects']}"
     assert TOLERANCE[name](found[name], hidden["params"]), f"hid {hidden}, found {found}"

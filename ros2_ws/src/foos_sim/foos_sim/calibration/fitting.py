@@ -212,13 +212,14 @@ def _dent_gains(path, w, tau, h, residual, centres, radii):
     return best
 
 
-def dent_search(batch: SegmentBatch, base: Fit, half=(0.34, 0.60)) -> tuple[np.ndarray, float]:
+def dent_search(batch: SegmentBatch, base: Fit, half=(0.34, 0.60), around: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """The dent (x, y, radius, depth) that best explains the residuals of `base`, by a matched filter.
 
     Linearised: a shallow dent adds to each segment the double integral of its pull along the
     fitted path, minus what the segment's own initial state can absorb (a line in time per axis).
     Each centre and radius on a grid gets its least-squares depth and the squared-residual drop it
-    buys (m^2); a coarse 4 cm grid is refined to 1 cm around the best.
+    buys (m^2); a coarse 4 cm grid is refined to 1 cm around the best. With `around` (x, y, radius)
+    only its neighbourhood is searched (within 4 cm and 3 cm of radius).
     """
     n = batch.n
     grid = surrogate.integrate(base.states[:, :2], base.states[:, 2:], np.tile(base.theta, (n, 1)), batch.nsteps, DT)
@@ -234,6 +235,12 @@ def dent_search(batch: SegmentBatch, base: Fit, half=(0.34, 0.60)) -> tuple[np.n
     np.add.at(residual, (rows, near[batch.mask]), r[batch.mask])
     np.add.at(w, (rows, near[batch.mask]), 1.0)
     tau = np.arange(K) * h
+    if around is not None:
+        fx = around[0] + np.arange(-0.04, 0.0401, 0.01)
+        fy = around[1] + np.arange(-0.04, 0.0401, 0.01)
+        centres = np.stack([a.ravel() for a in np.meshgrid(fx, fy)], axis=1)
+        radii = np.clip(around[2] + np.array([-0.03, -0.015, 0.0, 0.015, 0.03]), 0.04, 0.2)
+        return _dent_gains(path, w, tau, h, residual, centres, radii)
     xs = np.arange(-half[0] + 0.04, half[0] - 0.04 + 1e-9, 0.04)
     ys = np.arange(-half[1] + 0.04, half[1] - 0.04 + 1e-9, 0.04)
     centres = np.stack([a.ravel() for a in np.meshgrid(xs, ys)], axis=1)

@@ -1,13 +1,15 @@
-"""Which effects the data supports: forward selection by held-out evidence.
+"""Which effects the data supports: forward selection by held-out evidence, then a revision.
 
 Each round fits every remaining candidate added to the current set on all rolling segments and
 takes the one that explains most. It is kept only if it also predicts data it was not fitted on:
-the segments are split in two folds (alternating along the recording, so that a local effect such
-as a dent is seen by both), the extended and the current model
-are each fitted on one fold, and only their segments' initial states are re-fitted on the other.
-The evidence is the drop of that held-out squared error, in units of the detection noise
-variance, summed over both directions. A parameter that only soaks up noise does not predict the
-other fold and earns no evidence.
+the segments are split in two folds (alternating along the recording), the extended and the
+current model are each fitted on one fold, and only their segments' initial states are re-fitted
+on the other. The evidence is the drop of that held-out squared error, in units of the detection
+noise variance, summed over both directions. A parameter that only soaks up noise does not predict
+the other fold and earns no evidence. A dent is local: only the few rolls that cross it carry
+evidence, so it is judged on those, each predicted by a dent found without it. Finally each named
+effect must still earn its evidence given the others, and a named speed law is swapped for another
+when that predicts the held-out folds better (greedy order confuses them).
 """
 from __future__ import annotations
 
@@ -17,7 +19,7 @@ from typing import Callable
 import numpy as np
 
 from . import surrogate
-from .fitting import Fit, SegmentBatch, dent_search, fit, fit_states, predicted_drops
+from .fitting import MAX_DENT_DEPTH, Fit, SegmentBatch, dent_search, fit, fit_states, predicted_drops
 from .tracks import Segment
 
 ROLLING_CANDIDATES = ("table_tilt", "rolling_resistance", "viscous_damping", "air_drag", "surface_dent")
@@ -72,33 +74,59 @@ class HeldOut:
     def usable(self) -> bool:
         return all(b is not None and b.n >= 2 for b in self.batches)
 
-    def score(self, names: tuple[str, ...], theta_full: np.ndarray, current_thetas: list[np.ndarray] | None = None,
-              new_dent: bool = False) -> tuple[list[float], list[np.ndarray]]:
+    def score(self, names: tuple[str, ...], theta_full: np.ndarray) -> tuple[list[float], list[np.ndarray]]:
         """Held-out RSS of fold 1 under fold 0's fit and of fold 0 under fold 1's, and those thetas.
 
-        A new dent is searched for on the training fold alone: started from the all-data dent, a
-        fold without data near it would keep it untouched and "predict" the other fold with it.
+        Each fold's fit starts from the all-data fit. A dent is not refitted per fold (a fold may have
+        no roll over it, and then its dent is anything): it is judged by `dent_held_out_drops`, and
+        once named it is carried along, as fitted on all data, while the other effects are judged.
         """
         key = tuple(sorted(names))
         if key in self.cache:
             return self.cache[key]
-        free = free_indices(names)
+        # A named dent is held where all the data put it: half the rolls may have none over it to refit it.
+        free = free_indices([name for name in names if name != "surface_dent"])
         thetas, rss = [], [0.0, 0.0]
         for k in (0, 1):
-            train = self.batches[k]
-            start = theta_full
-            if new_dent and current_thetas is not None:
-                start = current_thetas[k].copy()
-                start[5:9] = dent_search(train, fit_states(train, current_thetas[k]))[0]
-                for j in free:  # the other free parameters start where the all-data fit put them
-                    if j < 5:
-                        start[j] = theta_full[j]
-            thetas.append(fit(train, free, start).theta if free else theta_full.copy())
+            thetas.append(fit(self.batches[k], free, theta_full).theta if free else theta_full.copy())
         for k in (0, 1):
             test = self.batches[1 - k]
             rss[1 - k] = fit_states(test, thetas[k]).rss
         self.cache[key] = (rss, thetas)
         return rss, thetas
+
+
+DENT_REACH = 0.04  # m: how far the neighbourhood search may move a dent's centre (and 3 cm its radius)
+LOO_MIN_GAIN = 10.0  # noise variances the other rolls' dent must explain of their own data to be tested
+
+
+def dent_held_out_drops(segments: list[Segment], without: np.ndarray, with_dent: np.ndarray, scale2: float) -> list[float]:
+    """Held-out evidence for a new dent, judged only on the rolls that cross it (leave one roll out).
+
+    Only the few rolls that pass over a dent carry any evidence of it, and two folds of all rolls
+    split those few by chance: a fold left with none can only guess. So each crossing roll in turn
+    is predicted by a dent found without it: a matched-filter search near the all-data dent on the
+    other crossing rolls. A roll the others cannot vouch for earns nothing (a dent seen by one roll
+    only is never named). Returns each crossing roll's drop in squared error, in units of scale2.
+    """
+    centre, radius = with_dent[5:7], with_dent[7]
+    crossing = [s for s in segments
+                if np.min(np.hypot(s.xy[:, 0] - centre[0], s.xy[:, 1] - centre[1])) < radius + DENT_REACH]
+    drops = []
+    for i, roll in enumerate(crossing):
+        others = crossing[:i] + crossing[i + 1:]
+        alone = SegmentBatch([roll])
+        without_rss = fit_states(alone, without).rss
+        theta = without.copy()
+        if others:
+            batch = SegmentBatch(others)
+            dent, gain = dent_search(batch, fit_states(batch, without), around=with_dent[5:8])
+            # Only a dent the other rolls clearly show (not one at the depth limit, which is what
+            # rolls with nothing to say about it give) is put to the test.
+            if gain / scale2 >= LOO_MIN_GAIN and abs(dent[3]) < MAX_DENT_DEPTH:
+                theta[5:9] = dent
+        drops.append((without_rss - fit_states(alone, theta).rss) / scale2)
+    return drops
 
 
 def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
@@ -139,24 +167,30 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
                 start[j] = max(start[j], 1e-3)
             candidate = fit(batch, free_indices(chosen + [name]), start, current.states)
             progress(f"held-out check of {name}")
-            rss, thetas = held.score(tuple(chosen + [name]), candidate.theta, base_thetas,
-                                     new_dent=name == "surface_dent" and not theta0[8])
+            new_dent = name == "surface_dent" and not theta0[8]
+            rss, thetas = held.score(tuple(chosen + [name]), candidate.theta)
             # Evidence in units of what the extended model still leaves unexplained, when that is more than
             # the frame-to-frame noise: a camera's detections carry slowly varying errors (a ball partly
             # hidden under a rod is seen off centre for several frames) that second differences do not
             # see, and a local effect can soak up a few of them in one fold.
             dof = max(1, candidate.nres - 4 * batch.n - len(free_indices(chosen + [name])))
             scale2 = max(sigma2, candidate.rss / dof)
-            fold_drops = [(b - r) / scale2 for b, r in zip(base_rss, rss)]
+            if new_dent:
+                fold_drops = dent_held_out_drops(segments, current.theta, candidate.theta, scale2)
+                supported = sum(d > 0 for d in fold_drops) >= 2
+            else:
+                fold_drops = [(b - r) / scale2 for b, r in zip(base_rss, rss)]
+                supported = True
             info = {
                 "held_out_error_drop_noise_variances": round(float(sum(fold_drops)), 1),
-                "per_fold": [round(float(d), 1) for d in fold_drops],
+                ("per_roll_over_the_dent" if new_dent else "per_fold"): [round(float(d), 1) for d in fold_drops],
                 "in_sample_error_drop_noise_variances": round(float((current.rss - candidate.rss) / scale2), 1),
                 "residual_scatter_over_noise": round(float(np.sqrt(scale2 / sigma2)), 2),
             }
             info["material"] = bool(material(name, candidate.theta, theta0))
             total = sum(fold_drops)
-            if total >= MIN_EVIDENCE and min(fold_drops) >= -max(10.0, MIN_FOLD_SHARE * total) and info["material"]:
+            if (total >= MIN_EVIDENCE and supported and info["material"]
+                    and min(fold_drops) >= -max(10.0, MIN_FOLD_SHARE * total)):
                 chosen.append(name)
                 evidence[name] = info
                 current, base_rss, base_thetas = candidate, rss, thetas
@@ -165,4 +199,74 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
             rejected[name] = info
         if not accepted:
             break
+    if len(chosen) >= 1:
+        chosen, current, base_rss, base_thetas = _revise(batch, held, chosen, current, base_rss, base_thetas, theta0,
+                                                          sigma2, evidence, rejected, progress)
     return Selection(chosen, current, evidence, base_thetas, rejected)
+
+
+SMOOTH = ("table_tilt", "rolling_resistance", "viscous_damping", "air_drag")
+MIN_SWAP_GAIN = 5.0  # held-out noise variances a swapped set must gain, so that ties do not flip
+
+
+def _revise(batch, held, chosen, current, base_rss, base_thetas, theta0, sigma2, evidence, rejected, progress):
+    """Forward selection's first choices, reconsidered once the others are in.
+
+    Greedy order can name the wrong law: a constant plus a linear loss looks, before either is in,
+    most like a quadratic one, and once the quadratic is in, neither of the true two adds enough on
+    its own. So each named effect is dropped if the others now explain what it did (its held-out
+    evidence, given the rest, falls under the threshold), and each named smooth effect is swapped
+    for an unnamed one when the swapped set predicts the held-out folds better.
+    """
+    def refit(names):
+        start = theta0.copy()
+        for name in names:
+            for j in surrogate.EFFECT_PARAMS[name]:
+                start[j] = current.theta[j] if name in chosen else start[j]
+            if name in ("viscous_damping", "air_drag") and name not in chosen:
+                j = surrogate.EFFECT_PARAMS[name][0]
+                start[j] = max(start[j], 1e-3)
+        full = fit(batch, free_indices(names), start, current.states)
+        rss, thetas = held.score(tuple(names), full.theta)
+        return full, rss, thetas
+
+    def scale2_of(full):
+        dof = max(1, full.nres - 4 * batch.n - len(full.free))
+        return max(sigma2, full.rss / dof)
+
+    for _ in range(4):  # each pass either changes the set or ends
+        changed = False
+        scale2 = scale2_of(current)
+        for name in [c for c in chosen if c in SMOOTH]:  # a dent was judged on the rolls over it
+            rest = [c for c in chosen if c != name]
+            progress(f"checking {name} given {' + '.join(rest) or 'nothing else'}")
+            full, rss, thetas = refit(rest) if rest else (fit_states(batch, theta0), *held.score((), theta0))
+            worth = (sum(rss) - sum(base_rss)) / scale2
+            evidence.setdefault(name, {})["held_out_error_drop_given_the_others"] = round(float(worth), 1)
+            if worth < MIN_EVIDENCE:
+                rejected[name] = {**evidence.pop(name), "reason": "the other named effects explain it"}
+                chosen, current, base_rss, base_thetas = rest, full, rss, thetas
+                changed = True
+                break
+        if changed:
+            continue
+        for name in [c for c in chosen if c in SMOOTH]:
+            for other in [c for c in SMOOTH if c not in chosen]:
+                names = [other if c == name else c for c in chosen]
+                progress(f"trying {other} in place of {name}")
+                full, rss, thetas = refit(names)
+                gain = (sum(base_rss) - sum(rss)) / scale2
+                if gain >= MIN_SWAP_GAIN and material(other, full.theta, theta0):
+                    info = {"held_out_error_drop_noise_variances": evidence.get(name, {}).get(
+                        "held_out_error_drop_noise_variances"), "swapped_in_for": name,
+                        "held_out_gain_over_it_noise_variances": round(float(gain), 1), "material": True}
+                    rejected[name] = {**evidence.pop(name, {}), "reason": f"{other} predicts the held-out folds better"}
+                    evidence[other] = info
+                    chosen, current, base_rss, base_thetas = names, full, rss, thetas
+                    changed = True
+                    break
+            if changed:
+                break
+        if not changed:
+            break
+    return chosen, current, base_rss, base_thetas
