@@ -9,53 +9,14 @@ import cv2
 import numpy as np
 import pytest
 
+from drawn_table import FPS, SCALE, STEEL_BGR, ORANGE_BGR, RADIUS_PX, draw_ball, table_frame, to_pixel, write_layout
 from foos_vision.backfill import OfflineTracker
-from foos_vision.markers import load_markers
 from foos_vision.tracker import BallTracker, TrackerConfig
-
-SCALE = 400.0  # px per m: u = 319.5 + SCALE * y, v = 239.5 + SCALE * x (a camera straight above)
-FELT_BGR = (40, 140, 30)
-ORANGE_BGR = (20, 120, 250)
-STEEL_BGR = (170, 170, 170)
-FPS = 120.0
-TAGS = {0: (-0.40, -0.68), 1: (0.40, -0.68), 2: (0.40, 0.0), 3: (-0.40, 0.0), 4: (0.40, 0.68), 5: (-0.40, 0.68)}
-RADIUS_PX = 0.0175 * SCALE
-
-
-def to_pixel(x: float, y: float) -> tuple[float, float]:
-    """Pixel-centre coordinates (pixel (0, 0) covers -0.5..0.5), as OpenCV measures them."""
-    return 319.5 + SCALE * y, 239.5 + SCALE * x
 
 
 @pytest.fixture(scope="module")
 def layout(tmp_path_factory):
-    path = tmp_path_factory.mktemp("backfill") / "markers.yaml"
-    lines = ["dictionary: DICT_4X4_50", "size: 0.06", "markers:"]
-    lines += [f"  {i}: [{x}, {y}, 0.0175]" for i, (x, y) in TAGS.items()]
-    path.write_text("\n".join(lines) + "\n")
-    return load_markers(path)
-
-
-def table_frame() -> np.ndarray:
-    frame = np.zeros((480, 640, 3), np.uint8)
-    frame[:] = FELT_BGR
-    dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)
-    side = int(0.06 * SCALE)
-    for tag_id, (x, y) in TAGS.items():
-        u, v = to_pixel(x, y)
-        tag = cv2.cvtColor(cv2.aruco.generateImageMarker(dictionary, tag_id, side), cv2.COLOR_GRAY2BGR)
-        tag = cv2.copyMakeBorder(tag, 6, 6, 6, 6, cv2.BORDER_CONSTANT, value=(255, 255, 255))
-        u0, v0 = int(round(u - (tag.shape[1] - 1) / 2)), int(round(v - (tag.shape[0] - 1) / 2))
-        frame[v0:v0 + tag.shape[0], u0:u0 + tag.shape[1]] = tag
-    return frame
-
-
-def draw_ball(frame: np.ndarray, x: float, y: float) -> None:
-    """A ball drawn at 4x and shrunk, so its edge is anti-aliased like a camera's."""
-    u, v = to_pixel(x, y)
-    cv2.circle(frame, (int(round(u * 4)), int(round(v * 4))), int(round(RADIUS_PX * 4)), ORANGE_BGR, -1,
-               cv2.LINE_AA, shift=2)
-
+    return write_layout(tmp_path_factory.mktemp("backfill") / "markers.yaml")
 
 def track(frames: list[np.ndarray], layout, backward: bool) -> dict[int, tuple[float, float]]:
     tracker = BallTracker(layout, TrackerConfig(ball_color="orange"))

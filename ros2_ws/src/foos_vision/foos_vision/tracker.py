@@ -34,6 +34,7 @@ CONFIDENT_RUN = 3
 HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.45, 0.5  # field search at half resolution: blobs worth a full-resolution look
 ELSEWHERE_EVERY = 3  # frames between searches of the whole field for a whole ball while the track is weak
 HEALTHY_FILL, HEALTHY_ROUNDNESS = 0.75, 0.8  # or a single frame this filled and round  # ball-like frames in a row that make a track on partial blobs healthy again
+AUTO_MIN_SHARE = 0.3  # auto colour: share of the frames looked at in which the winner saw one moving ball
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
 # pockets behind the mouths are roofed, so a camera above never sees a ball there, only the roof.
@@ -426,8 +427,11 @@ class BallTracker:
         best, second = ranked[0], ranked[1]
         if votes[best] > 0:
             self.detector = BallDetector(colour_model(best))
-        # Settle only on clear evidence: a figure of one colour can pass for a ball now and then.
-        if (self.stats.frames_with_mapping >= self.config.auto_frames and votes[best] >= 3
+        # Settle only on clear evidence: a figure of one colour passes for a ball now and then (a red figure
+        # moving with its rod in a fifth of the frames while an orange ball was half hidden), a ball in view
+        # does so in most frames.
+        voted = len(self._auto_seen[best])
+        if (self.stats.frames_with_mapping >= self.config.auto_frames and votes[best] >= max(3, AUTO_MIN_SHARE * voted)
                 and votes[best] >= 2 * votes[second]):
             self._auto_done = True
             self.kalman.reset()
