@@ -299,19 +299,15 @@ class BallTracker:
         """A whole ball in plain view: nearly the full disc, round, filled, and not part of a larger blob."""
         return min_ratio <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85 and c.spill <= MAX_SPILL
 
-    def _solid_elsewhere(self, bgr: np.ndarray, tracked: Optional[Candidate]):
-        """A whole ball away from the tracked blob (or anywhere, without one), found with the
-        shading-tolerant colour (or nothing)."""
-        candidates = [c for c in self._search_field(bgr) if c.area_ratio >= 0.4 and c.roundness >= 0.6
-                      and not self._fixture(c, count=False)]
-        if tracked is not None:
-            radius = self._radius_at_pixel(tracked.u, tracked.v)
-            candidates = [c for c in candidates if math.hypot(c.u - tracked.u, c.v - tracked.v) >= 3 * radius]
-        for c in sorted(candidates, key=lambda c: -c.score)[:3]:
+    def _solid_elsewhere(self, bgr: np.ndarray, tracked: Candidate):
+        """A whole ball away from the tracked blob, found with the shading-tolerant colour (or nothing)."""
+        radius = self._radius_at_pixel(tracked.u, tracked.v)
+        loose = [c for c in self._search_field(bgr) if c.area_ratio >= 0.4 and c.roundness >= 0.6
+                 and math.hypot(c.u - tracked.u, c.v - tracked.v) >= 3 * radius and not self._fixture(c, count=False)]
+        for c in sorted(loose, key=lambda c: -c.score)[:3]:
             r = self._radius_at_pixel(c.u, c.v)
             found = self._search_window(bgr, np.array([c.u, c.v]), 2 * r + 3, 2 * r + 3, use_band=True)
-            if (found[0] is not None and self._solid(found[0])
-                    and (tracked is None or found[0].score >= tracked.score + 0.15)):
+            if found[0] is not None and self._solid(found[0]) and found[0].score >= tracked.score + 0.15:
                 return found
         return None, None, None
 
