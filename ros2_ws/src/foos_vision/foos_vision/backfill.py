@@ -44,11 +44,12 @@ class OfflineTracker:
         self._track_start: Optional[int] = None  # first frame of a new track whose backward pass is pending
         self.backfilled = 0
 
-    def process(self, index: int, t: float, frame: np.ndarray) -> Optional[Detection]:
-        """The forward tracker's detection in this frame (what tracker_node would publish)."""
-        detection = self.tracker.process(frame, t)
+    def process(self, index: int, t: float, frame: np.ndarray, joints: Optional[np.ndarray] = None) -> Optional[Detection]:
+        """The forward tracker's detection in this frame (what tracker_node would publish). joints: the rod
+        joint positions at t, for the figure mask (None: no mask)."""
+        detection = self.tracker.process(frame, t, joints)
         if self.backward:
-            self._frames.append((index, t, frame))
+            self._frames.append((index, t, frame, joints))
         if detection is not None:
             self._found[index] = TrackedFrame(index, detection, self.tracker.kalman.state.x.copy())
             if index - 1 not in self._found:
@@ -86,8 +87,16 @@ class OfflineTracker:
         kalman = ConstantVelocityKalman(measurement_std=tr.config.measurement_std)
         for seed in reversed(seeds):
             kalman.update(-seed.detection.t, np.array([seed.detection.x, seed.detection.y]))
+        try:
+            self._search_frames_back(start, kalman)
+        finally:
+            # The forward tracker goes on with the newest frame's figures.
+            tr.set_figures(self._frames[-1][3] if self._frames else None)
+
+    def _search_frames_back(self, start: int, kalman: ConstantVelocityKalman) -> None:
+        tr = self.tracker
         weak_since = None
-        for index, t, frame in reversed(self._frames):
+        for index, t, frame, joints in reversed(self._frames):
             if index >= start:
                 continue
             if index in self._found:
@@ -98,6 +107,7 @@ class OfflineTracker:
             # Frame by frame from a seen ball: no allowance for a hit while hidden, and the pass ends at the
             # first frame without the ball. Before a gap the ball's path is unknown (the serve, a kick), and a
             # figure of its colour there would pass for a half-hidden ball.
+            tr.set_figures(joints)
             candidate, _, _ = tr._search_near(frame, state, 0.0, 0)
             # Hollow (a figure's outline) or merged with something of its colour (its centre pulled off): not
             # a ball to start a track's history with.

@@ -11,6 +11,10 @@ new track), and compares with the truth frame by frame:
 - false detections per 1000 frames where the ball is hidden entirely,
 - speed error (m/s, median) of central differences and of the Kalman filter,
 - tracker throughput on one core (frames/s; decoding excluded, and included).
+
+With `--figure-mask both` (the default) every case is tracked twice: as now, and with the figure mask
+(`+mask` rows), fed the rendered rod joint positions (OUT.joints.csv) as track_video's --joint-states
+or tracker_node's /joint_states would be.
 """
 from __future__ import annotations
 
@@ -62,13 +66,14 @@ def render_case(case: Case, out: Path, duration: float, seed: int, reuse: bool =
                "--visibility", "--overwrite", "--quiet"]
     if case.distortion:
         command += ["--distortion=" + ",".join(str(v) for v in case.distortion)]
-    if reuse and video.exists() and Path(f"{out / case.name}.truth.csv").exists():
+    if reuse and video.exists() and Path(f"{out / case.name}.truth.csv").exists() \
+            and Path(f"{out / case.name}.joints.csv").exists():
         return video
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
     return video
 
 
-def evaluate(video: Path, case: Case) -> dict:
+def evaluate(video: Path, case: Case, figure_mask: bool = False) -> dict:
     import cv2
 
     from .camera import load_intrinsics
@@ -86,8 +91,25 @@ def evaluate(video: Path, case: Case) -> dict:
     reader = VideoReader(str(video))
     frames = [frame for _, _, frame in reader.frames()]
     reader.close()
-    colour = choose_colour(frames, layout, TrackerConfig(intrinsics=intrinsics), reader.fps) or "auto"
-    tracker = BallTracker(layout, TrackerConfig(ball_color=colour, intrinsics=intrinsics))
+    figures, joints = None, None
+    if figure_mask:
+        from .figure_mask import FigureGeometry, joint_track
+        from .render import read_joints
+
+        joints_file = Path(f"{stem}.joints.csv")
+        if not joints_file.exists():
+            raise SystemExit(f"bench_vision: error: {joints_file} is missing (rendered before joints were written; "
+                             f"render again without --reuse)")
+        t_j, names, position = read_joints(joints_file)
+        joints = joint_track(t_j, names, position, str(joints_file))
+        figures = FigureGeometry()
+    fps = reader.fps
+
+    def joints_at(t: float):
+        return None if joints is None else joints.at(t)
+
+    colour = choose_colour(frames, layout, TrackerConfig(intrinsics=intrinsics), fps, figures, joints_at) or "auto"
+    tracker = BallTracker(layout, TrackerConfig(ball_color=colour, intrinsics=intrinsics), figures)
     start = time.perf_counter()
     decode_start = time.perf_counter()
     reader = VideoReader(str(video))
@@ -99,7 +121,7 @@ def evaluate(video: Path, case: Case) -> dict:
     online = set()
     start = time.perf_counter()
     for k, frame in enumerate(frames):
-        if offline.process(k, k / reader.fps, frame) is not None:
+        if offline.process(k, k / reader.fps, frame, joints_at(k / reader.fps)) is not None:
             online.add(k)
     offline.finish()
     track_time = time.perf_counter() - start
@@ -131,7 +153,7 @@ def evaluate(video: Path, case: Case) -> dict:
         return float(np.median(np.linalg.norm(v[ok] - v_true[ok], axis=1))) if np.any(ok) else math.nan
 
     return {
-        "case": case.name, "frames": n, "detections": len(detections),
+        "case": case.name + ("+mask" if figure_mask else ""), "frames": n, "detections": len(detections),
         "median_mm": float(np.median(errors)) if len(errors) else math.nan,
         "p95_mm": float(np.percentile(errors, 95)) if len(errors) else math.nan,
         "recall": recall, "online_recall": online_recall, "half_visible_frames": len(half),
@@ -155,17 +177,18 @@ def load_intrinsics_from_camera(path: Path):
 
 
 def format_row(r: dict) -> str:
-    return (f"{r['case']:<28} {r['frames']:>5} {r['half_visible_frames']:>5} {r['hidden_frames']:>5} "
+    return (f"{r['case']:<32} {r['frames']:>5} {r['half_visible_frames']:>5} {r['hidden_frames']:>5} "
             f"{r['median_mm']:>7.2f} {r['p95_mm']:>7.2f} {100 * r['recall']:>7.1f} {100 * r['online_recall']:>6.1f} "
             f"{r['false_per_1000']:>8.1f} {r['speed_err_cd']:>7.3f} {r['speed_err_kf']:>7.3f} "
             f"{r['fps_track']:>7.0f} {r['fps_with_decode']:>7.0f} {r['airborne_frames']:>5}  {r['colour']}")
 
 
-HEADER = (f"{'case':<28} {'frames':>5} {'half':>5} {'hid':>5} {'med mm':>7} {'p95 mm':>7} {'recall%':>7} {'onl%':>6} "
+HEADER = (f"{'case':<32} {'frames':>5} {'half':>5} {'hid':>5} {'med mm':>7} {'p95 mm':>7} {'recall%':>7} {'onl%':>6} "
           f"{'false/1k':>8} {'|dv|cd':>7} {'|dv|kf':>7} {'fps':>7} {'fps+dec':>7} {'air':>5}  colour")
 
 
-def run(duration: float, cases: list[Case], workdir: Path, seed: int = 1, echo=print, reuse: bool = False) -> list[dict]:
+def run(duration: float, cases: list[Case], workdir: Path, seed: int = 1, echo=print, reuse: bool = False,
+        figure_mask: str = "both") -> list[dict]:
     import cv2
 
     cv2.setNumThreads(1)
@@ -173,9 +196,10 @@ def run(duration: float, cases: list[Case], workdir: Path, seed: int = 1, echo=p
     echo(HEADER)
     for i, case in enumerate(cases):
         video = render_case(case, workdir, duration, seed + i, reuse)
-        result = evaluate(video, case)
-        results.append(result)
-        echo(format_row(result))
+        for masked in {"off": (False,), "on": (True,), "both": (False, True)}[figure_mask]:
+            result = evaluate(video, case, masked)
+            results.append(result)
+            echo(format_row(result))
     errors = np.array([[r["median_mm"], r["p95_mm"]] for r in results])
     echo("")
     echo(f"worst case: median {np.nanmax(errors[:, 0]):.2f} mm (target <= {TARGETS['median_mm']}), "
@@ -199,6 +223,9 @@ def main(argv=None) -> None:
     p.add_argument("--workdir", help="keep the rendered videos here (default a temporary directory)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--reuse", action="store_true", help="track the videos already in --workdir instead of rendering")
+    p.add_argument("--figure-mask", choices=("off", "on", "both"), default="both",
+                   help="track without the figure mask from the rendered joint positions, with it (+mask rows), "
+                        "or both (default)")
     args = p.parse_args(argv)
     cases = list(CASES)
     if args.cases:
@@ -209,10 +236,10 @@ def main(argv=None) -> None:
         cases = [c for c in CASES if c.name in wanted]
     if args.workdir:
         Path(args.workdir).mkdir(parents=True, exist_ok=True)
-        run(args.duration, cases, Path(args.workdir), args.seed, reuse=args.reuse)
+        run(args.duration, cases, Path(args.workdir), args.seed, reuse=args.reuse, figure_mask=args.figure_mask)
     else:
         with tempfile.TemporaryDirectory(prefix="bench_vision_") as tmp:
-            run(args.duration, cases, Path(tmp), args.seed)
+            run(args.duration, cases, Path(tmp), args.seed, figure_mask=args.figure_mask)
 
 
 if __name__ == "__main__":

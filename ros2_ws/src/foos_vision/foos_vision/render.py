@@ -39,6 +39,7 @@ class FrameTruth:
     position: np.ndarray  # (3,), NaN when the ball is out of sight on purpose (picked up)
     velocity: np.ndarray
     visible: float  # fraction of the ball's disc that is visible; NaN when not measured
+    joints: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the 16 rod joints (JOINT_NAMES order) at t
 
 
 class DistortionMap:
@@ -79,6 +80,9 @@ class SceneRenderer:
         self.ball_qpos = slice(ball.qposadr[0], ball.qposadr[0] + 3)
         self.ball_geom = self.model.geom("ball").id
         self.ball_radius = float(self.model.geom_size[self.ball_geom][0])
+        from foos_sim.names import JOINT_NAMES
+
+        self.rod_qpos = np.array([self.model.joint(n).qposadr[0] for n in JOINT_NAMES])
         self.rng = np.random.default_rng(options.seed)
 
     def _pose(self, qpos: np.ndarray, hidden: bool) -> None:
@@ -152,7 +156,7 @@ def render_frames(renderer: SceneRenderer, state_at: StateAt, n_frames: int) -> 
                 if hidden:
                     position[:] = math.nan
                 truth = FrameTruth(t_k, position, velocity.copy() if not hidden else np.full(3, math.nan),
-                                   renderer.visible_fraction(qpos, hidden))
+                                   renderer.visible_fraction(qpos, hidden), qpos[renderer.rod_qpos].copy())
                 if o.subframes > 1:
                     continue
             images.append(renderer.render_rgb(qpos, hidden))
@@ -164,6 +168,23 @@ def write_truth(path: Path, truths: list[FrameTruth]) -> None:
     header = "frame,t,x,y,z,vx,vy,vz,visible"
     fmt = ["%d", "%.9f"] + ["%.7f"] * 6 + ["%.4f"]
     np.savetxt(path, rows, delimiter=",", header=header, comments="", fmt=fmt)
+
+
+def write_joints(path: Path, truths: list[FrameTruth]) -> None:
+    """frame,t and the 16 rod joints at each frame time: what /joint_states says on an instrumented table."""
+    from foos_sim.names import JOINT_NAMES
+
+    rows = np.array([[i, f.t, *f.joints] for i, f in enumerate(truths)], float)
+    fmt = ["%d", "%.9f"] + ["%.7f"] * len(JOINT_NAMES)
+    np.savetxt(path, rows, delimiter=",", header="frame,t," + ",".join(JOINT_NAMES), comments="", fmt=fmt)
+
+
+def read_joints(path: str | Path) -> tuple[np.ndarray, list[str], np.ndarray]:
+    """(t, joint names, positions (N, J)) of a joints CSV written by write_joints."""
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    names = [n for n in data.dtype.names if n not in ("frame", "t")]
+    data = np.atleast_1d(data)
+    return np.asarray(data["t"], float), names, np.stack([np.asarray(data[n], float) for n in names], axis=1)
 
 
 def read_truth(path: str | Path) -> dict[str, np.ndarray]:

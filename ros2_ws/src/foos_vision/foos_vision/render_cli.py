@@ -24,6 +24,7 @@ and write the ground truth next to it:
                      (with --visibility, else NaN)
   OUT.camera.yaml    the camera used (pose, fov, size, fps, distortion) and its OpenCV intrinsics
   OUT.markers.yaml   the ArUco tag layout in the video, ready for `track_video --markers`
+  OUT.joints.csv     frame,t and the 16 rod joints at each frame time (what /joint_states would say)
 
 Examples:
   render_video out/roll.mp4 --scenario rolls --duration 20 --params-file tilted.yaml
@@ -99,14 +100,15 @@ def render_video(args: argparse.Namespace) -> int:
     from foos_sim.simulation import TableSimulation
     from foos_sim.table_params import load_params
 
-    from .render import RenderOptions, SceneRenderer, render_frames, write_truth
+    from .render import RenderOptions, SceneRenderer, render_frames, write_joints, write_truth
     from .scenarios import BagRollout, SimRollout
 
     out = Path(args.out)
     if out.suffix.lower() != ".mp4":
         raise VisionError(f"{out}: the output must be an .mp4 file")
     stem = out.with_suffix("")
-    outputs = [out, Path(f"{stem}.truth.csv"), Path(f"{stem}.camera.yaml"), Path(f"{stem}.markers.yaml")]
+    outputs = [out, Path(f"{stem}.truth.csv"), Path(f"{stem}.camera.yaml"), Path(f"{stem}.markers.yaml"),
+               Path(f"{stem}.joints.csv")]
     existing = [str(o) for o in outputs if o.exists()]
     if existing and not args.overwrite:
         raise VisionError(f"{existing[0]} exists (use --overwrite to replace it)")
@@ -149,6 +151,7 @@ def render_video(args: argparse.Namespace) -> int:
         # Whatever was rendered keeps its truth, even after Ctrl-C.
         if truths:
             write_truth(outputs[1], truths)
+            write_joints(outputs[4], truths)
     k = camera.camera_matrix()
     camera_tree = {key: (list(v) if isinstance(v, tuple) else v) for key, v in camera.__dict__.items()}
     camera_tree["intrinsics"] = {"image_width": camera.width, "image_height": camera.height,

@@ -24,8 +24,15 @@ Offline, each new track is also followed backward in time from its first detecti
 frames just before it, to recover a ball that came out half hidden from under a rod or a foot
 before the track started (tracker_node, online, cannot do this; --no-backfill tracks as it does).
 
+With --joint-states BAG (a bag with /joint_states: the rod encoders of an instrumented table, or any bag
+the simulator wrote) the figures are masked out: each figure's box, posed from the 16 rod joints at the
+frame's time (interpolated between readings; stamps must share the video's clock, see --start-time), is
+projected into the image, and pixels under it are not ball evidence. That separates a ball from figures
+of its colour. Frames more than 0.1 s from any reading are tracked without the mask.
+
 Examples:
   track_video game.mp4 --markers table_markers.yaml --out game_bag
+  track_video game.mp4 --markers m.yaml --out bag --joint-states game_rods_bag --start-time 12.5
   track_video game.mp4 --markers m.yaml --out bag --ball-color yellow --intrinsics cam.yaml \\
       --csv-pixels px.csv --csv-metres m.csv --annotate seen.mp4
 Exit status: 0 done, 1 ran but the result is incomplete (video cut short), 2 bad input (no bag written).
@@ -52,6 +59,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--annotate", help="also write what the tracker saw: a video (.mp4) or the last frame with the track (.png)")
     p.add_argument("--no-backfill", action="store_true",
                    help="forward pass only, as tracker_node tracks live (no backward search before a track's start)")
+    p.add_argument("--joint-states", metavar="BAG",
+                   help="bag with /joint_states (the 16 rod joints): mask out the figures (see above)")
+    p.add_argument("--params-file", help="foos_sim table parameter file for the figure geometry (default: nominal)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -83,14 +93,29 @@ def track_video(args: argparse.Namespace) -> int:
     layout = load_markers(args.markers)
     intrinsics = load_intrinsics(args.intrinsics) if args.intrinsics else None
     config = TrackerConfig(ball_color=args.ball_color, intrinsics=intrinsics, tag_interval=args.tag_interval)
+    figures, joints = None, None
+    if args.joint_states:
+        from .figure_mask import FigureGeometry, read_joint_track
+
+        joints = read_joint_track(args.joint_states)
+        figures = FigureGeometry(args.params_file)
+
+    def joints_at(stamp: float):
+        return None if joints is None else joints.at(stamp)
+
     if args.ball_color == "auto":
         # Settle the colour on the first seconds first, so the first frames are tracked with it too.
         probe = VideoReader(args.video, args.fps)
         frames = (frame for index, _, frame in probe.frames() if index < 10 * probe.fps)
-        config.ball_color = choose_colour(frames, layout, config, probe.fps) or "auto"
+        config.ball_color = choose_colour(frames, layout, config, probe.fps, figures,
+                                          lambda t: joints_at(t + args.start_time)) or "auto"
         probe.close()
     reader = VideoReader(args.video, args.fps)
-    tracker = BallTracker(layout, config)
+    if joints is not None and reader.declared_frames and not joints.covers(
+            args.start_time, args.start_time + reader.declared_frames / reader.fps):
+        raise VisionError(f"--joint-states {args.joint_states}: its stamps ({joints.t[0]:.2f}-{joints.t[-1]:.2f} s) "
+                          f"do not overlap the video's frame times from --start-time {args.start_time:g} s")
+    tracker = BallTracker(layout, config, figures)
     offline = OfflineTracker(tracker, reader.fps, backward=not args.no_backfill)
     annotator = Annotator(tracker) if args.annotate else None
     writer = None
@@ -101,7 +126,7 @@ def track_video(args: argparse.Namespace) -> int:
         for index, t, frame in tqdm(reader.frames(), total=reader.declared_frames or None, desc="track_video",
                                     unit="frame", disable=args.quiet):
             stamp = t + args.start_time
-            detection = offline.process(index, stamp, frame)
+            detection = offline.process(index, stamp, frame, joints_at(stamp))
             if annotator is not None:
                 drawn = annotator.draw(frame, detection)
                 if args.annotate.lower().endswith(".mp4"):
@@ -150,7 +175,8 @@ def track_video(args: argparse.Namespace) -> int:
         cv2.imwrite(args.annotate, last_frame)
     print(f"track_video: {len(detections)} detections in {stats.frames} frames ({len(detections) / stats.frames:.0%}), "
           f"{stats.tag_fits} tag fits, colour {tracker.colour.name}, {stats.frames / elapsed:.0f} frames/s -> {args.out}"
-          + (f" ({offline.backfilled} found by the backward pass before tracks started)" if offline.backfilled else ""))
+          + (f" ({offline.backfilled} found by the backward pass before tracks started)" if offline.backfilled else "")
+          + (f"; figure mask in {stats.masked_frames} frames" if joints is not None else ""))
     for tag_id, error in sorted(stats.dropped_tags.items()):
         print(f"track_video: warning: tag {tag_id} is {error * 1000:.0f} mm from where the markers file puts it "
               f"(relative to the other tags); it was left out of the fit - measure it again", file=sys.stderr)

@@ -11,6 +11,7 @@ import numpy as np
 from .camera import Intrinsics
 from .detector import BALL_COLOR_NAMES, BallDetector, Candidate, ColourModel, colour_model, learn_colour
 from .errors import MarkersError
+from .figure_mask import FigureGeometry, FigureMasker, projection_from_mapping
 from .geometry import MAX_TAG_RESIDUAL, Lens, PlaneMapping, TagLocator, fit_mapping
 from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 from .velocity import ConstantVelocityKalman, KalmanState
@@ -73,11 +74,18 @@ class TrackerStats:
     tags_seen: set = field(default_factory=set)
     rejected_fits: int = 0
     dropped_tags: dict = field(default_factory=dict)  # id -> worst disagreement (m) when left out of a fit
+    masked_frames: int = 0  # frames searched with the figure mask (joint positions known)
 
 
 class BallTracker:
-    def __init__(self, layout: MarkerLayout, config: TrackerConfig | None = None):
+    def __init__(self, layout: MarkerLayout, config: TrackerConfig | None = None,
+                 figures: Optional[FigureGeometry] = None):
+        """figures: the table's figure boxes; with them, process(..., joints) masks out the figures' pixels."""
         self.layout = layout
+        self.figures = figures
+        self._masker: Optional[FigureMasker] = None
+        self._active_region: Optional[np.ndarray] = None  # the field minus this frame's figures
+        self._active_region_small: Optional[np.ndarray] = None
         self.config = config or TrackerConfig()
         if self.config.ball_color != "auto" and self.config.ball_color not in BALL_COLOR_NAMES:
             raise ValueError(f"unknown ball colour `{self.config.ball_color}` (auto, {', '.join(BALL_COLOR_NAMES)})")
@@ -163,6 +171,28 @@ class BallTracker:
         if self._search_scale != 1.0:
             x0, y0, x1, y1 = self._roi
             self._region_small = cv2.resize(region[y0:y1, x0:x1], None, fx=0.5, fy=0.5, interpolation=cv2.INTER_NEAREST)
+        self._active_region, self._active_region_small = self._region, self._region_small
+        if self.figures is not None:
+            k = self.config.intrinsics.camera_matrix if self.config.intrinsics is not None else None
+            projection = projection_from_mapping(self.mapping, (width, height), k, self.config.fovy_hint)
+            self._masker = FigureMasker(self.figures, projection, self.lens, (width, height))
+
+    def set_figures(self, joints: Optional[np.ndarray]) -> None:
+        """Search this frame's field without the figures at these joint positions (16, JOINT_NAMES order);
+        None: the whole field, as without joint states."""
+        if joints is None or self._masker is None:
+            self._active_region, self._active_region_small = self._region, self._region_small
+            return
+        figures = self._masker.mask(np.asarray(joints, float))
+        self._active_region = cv2.bitwise_and(self._region, cv2.bitwise_not(figures))
+        if self._search_scale != 1.0:
+            x0, y0, x1, y1 = self._roi
+            self._active_region_small = cv2.resize(self._active_region[y0:y1, x0:x1], None, fx=0.5, fy=0.5,
+                                                   interpolation=cv2.INTER_NEAREST)
+
+    def figure_mask(self, joints: np.ndarray) -> Optional[np.ndarray]:
+        """The figures' footprint (uint8, 255 under a figure) once the tags are found, for drawing."""
+        return None if self._masker is None else self._masker.mask(np.asarray(joints, float))
 
     # --- geometry helpers -------------------------------------------------------------------------
     def _radius_at_table(self, xy) -> float:
@@ -198,8 +228,9 @@ class BallTracker:
         return self.lens.distort(self.mapping.to_image(np.asarray(xy, float).reshape(1, 2)))[0]
 
     # --- per frame --------------------------------------------------------------------------------
-    def process(self, bgr: np.ndarray, t: float) -> Optional[Detection]:
-        """The ball in this frame, or None (no ball is ever guessed)."""
+    def process(self, bgr: np.ndarray, t: float, joints: Optional[np.ndarray] = None) -> Optional[Detection]:
+        """The ball in this frame, or None (no ball is ever guessed). joints: the 16 rod joint positions at the
+        frame's time (JOINT_NAMES order), when known and the tracker has figures: their pixels are not ball."""
         if bgr is None or bgr.ndim != 3 or bgr.shape[2] != 3:
             raise ValueError("the tracker needs 3-channel BGR frames")
         if self._last_t is not None and t < self._last_t:
@@ -215,6 +246,8 @@ class BallTracker:
         if self.mapping is None:
             return None
         self.stats.frames_with_mapping += 1
+        self.set_figures(joints)
+        self.stats.masked_frames += int(joints is not None and self._masker is not None)
         if not self._auto_done:
             self._vote_colour(bgr)
             if not self._auto_done:
@@ -337,12 +370,12 @@ class BallTracker:
         s = self._search_scale
         if s == 1.0:
             candidates, self._field_lab, _ = self.detector.candidates(bgr, self._roi, self._radius_at_pixel,
-                                                                      self._min_radius, self._region, use_band=False)
+                                                                      self._min_radius, self._active_region, use_band=False)
             return candidates
         x0, y0, x1, y1 = self._roi
         small = cv2.resize(bgr[y0:y1, x0:x1], None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
         h, w = small.shape[:2]
-        region = self._region_small
+        region = self._active_region_small
         # Every blob found here is measured again at full resolution before it counts: no outline fits.
         candidates, _, _ = self.detector.candidates(
             small, (0, 0, w, h), lambda u, v: s * self._radius_at_pixel(x0 + (u + 0.5) / s - 0.5, y0 + (v + 0.5) / s - 0.5),
@@ -361,7 +394,7 @@ class BallTracker:
         if x1 - x0 < 3 or y1 - y0 < 3:
             return None, None, None
         roi = (x0, y0, x1, y1)
-        candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._region,
+        candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._active_region,
                                                       use_band=use_band, band_seeds=band_seeds)
         near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate
                 and (c.score > MIN_SCORE or (c.score > PARTIAL_MIN_SCORE and c.area_ratio >= PARTIAL_MIN_RATIO
@@ -415,7 +448,8 @@ class BallTracker:
         """Auto colour: which prototype finds one round, ball-sized blob that moves, most often."""
         for name in BALL_COLOR_NAMES:
             detector = BallDetector(colour_model(name))
-            candidates, _, _ = detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius, self._region,
+            candidates, _, _ = detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius,
+                                                   self._active_region,
                                                    use_band=False)
             self._auto_seen[name].append([(c.u, c.v) for c in candidates if self._confident(c)])
         votes = {name: self._colour_votes(frames) for name, frames in self._auto_seen.items()}
@@ -460,15 +494,17 @@ class BallTracker:
             self._learned = True
 
 
-def choose_colour(frames, layout: MarkerLayout, config: TrackerConfig | None = None, fps: float = 30.0) -> Optional[str]:
+def choose_colour(frames, layout: MarkerLayout, config: TrackerConfig | None = None, fps: float = 30.0,
+                  figures: Optional[FigureGeometry] = None, joints_at=None) -> Optional[str]:
     """The ball colour `auto` settles on over these frames (None when it cannot tell), so an offline run
-    can track its first frames with the right colour too."""
+    can track its first frames with the right colour too. joints_at(t): the rod joints at a frame's time
+    (or None), to leave the figures out of the vote."""
     config = config or TrackerConfig()
     tracker = BallTracker(layout, TrackerConfig(ball_color="auto", intrinsics=config.intrinsics,
                                                 tag_interval=config.tag_interval, fovy_hint=config.fovy_hint,
-                                                auto_frames=config.auto_frames))
+                                                auto_frames=config.auto_frames), figures)
     for k, frame in enumerate(frames):
-        tracker.process(frame, k / fps)
+        tracker.process(frame, k / fps, joints_at(k / fps) if joints_at is not None else None)
         if tracker._auto_done:
             return tracker.colour.name
     return None

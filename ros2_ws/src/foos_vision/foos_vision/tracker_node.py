@@ -1,12 +1,17 @@
 """tracker_node: /camera/image_raw -> /ball/detection (PointStamped) and /ball/state (Odometry).
 
 Stamps are the images' stamps (capture time). A frame without a ball publishes nothing.
+When /joint_states arrives (rod encoders, or sim_node), the figures are masked out of each frame: the
+latest joint state stamped at or before the image (at most 0.1 s older) poses the figures, and their
+pixels are not ball evidence. Without joint states (or -p figure_mask:=false) it tracks as before.
 
     ros2 run foos_vision tracker_node --ros-args -p markers:=table_markers.yaml -p ball_color:=yellow
 """
 from __future__ import annotations
 
+import bisect
 import sys
+from collections import deque
 
 import numpy as np
 import rclpy
@@ -14,14 +19,17 @@ from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import Image, JointState
 
 from .camera import load_intrinsics
 from .cli_util import quiet_threads
 from .errors import VisionError
 from .markers import DEFAULT_MARKERS_FILE, load_markers
 from .ros_common import image_to_bgr, stamp_to_seconds
+from .figure_mask import FigureGeometry, figure_joint_names
 from .tracker import BallTracker, TrackerConfig
+
+JOINT_STATE_MAX_AGE = 0.1  # s: an older reading no longer says where a kicking figure is
 
 
 class TrackerNode(Node):
@@ -31,6 +39,8 @@ class TrackerNode(Node):
         self.declare_parameter("ball_color", "auto")
         self.declare_parameter("intrinsics", "")  # calibrate_camera YAML; '' = no undistortion
         self.declare_parameter("tag_interval", 30)
+        self.declare_parameter("figure_mask", True)  # mask the figures posed from /joint_states
+        self.declare_parameter("params_file", "")  # foos_sim table parameters for the figure geometry; '' = nominal
         markers = load_markers(self.get_parameter("markers").value)
         intrinsics_file = self.get_parameter("intrinsics").value
         config = TrackerConfig(
@@ -38,17 +48,47 @@ class TrackerNode(Node):
             intrinsics=load_intrinsics(intrinsics_file) if intrinsics_file else None,
             tag_interval=int(self.get_parameter("tag_interval").value),
         )
-        self.tracker = BallTracker(markers, config)
+        figures = None
+        self.joint_names = figure_joint_names()
+        self.joint_history: deque = deque(maxlen=400)  # (stamp, positions), by stamp
+        if self.get_parameter("figure_mask").value:
+            figures = FigureGeometry(self.get_parameter("params_file").value or None)
+            self.create_subscription(JointState, "/joint_states", self.on_joint_states, 50)
+        self.tracker = BallTracker(markers, config, figures)
+        self.warned_joints = False
         self.detection_pub = self.create_publisher(PointStamped, "/ball/detection", 50)
         self.state_pub = self.create_publisher(Odometry, "/ball/state", 50)
         self.create_subscription(Image, "/camera/image_raw", self.on_image, 10)
         self.warned_tags = False
 
+    def on_joint_states(self, msg: JointState) -> None:
+        index = {name: i for i, name in enumerate(msg.name)}
+        if any(n not in index for n in self.joint_names) or len(msg.position) < len(msg.name):
+            if not self.warned_joints:
+                self.get_logger().warning("/joint_states without all 16 rod joint positions: no figure mask")
+                self.warned_joints = True
+            return
+        position = np.array([msg.position[index[n]] for n in self.joint_names], float)
+        if not np.all(np.isfinite(position)):
+            return
+        stamp = stamp_to_seconds(msg.header.stamp)
+        if self.joint_history and stamp < self.joint_history[-1][0]:
+            self.joint_history.clear()  # time went backwards (a bag replayed again): start over
+        self.joint_history.append((stamp, position))
+
+    def joints_at(self, t: float):
+        """The latest joint positions stamped at or before t, if recent enough (None: no mask)."""
+        stamps = [s for s, _ in self.joint_history]
+        i = bisect.bisect_right(stamps, t + 1e-6)
+        if i == 0 or t - stamps[i - 1] > JOINT_STATE_MAX_AGE:
+            return None
+        return self.joint_history[i - 1][1]
+
     def on_image(self, msg: Image) -> None:
         t = stamp_to_seconds(msg.header.stamp)
         try:
             frame = image_to_bgr(msg)
-            detection = self.tracker.process(frame, t)
+            detection = self.tracker.process(frame, t, self.joints_at(t))
         except ValueError as error:
             self.get_logger().warning(f"frame at {t:.3f} s skipped: {error}")
             return

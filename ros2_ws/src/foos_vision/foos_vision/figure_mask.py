@@ -1,0 +1,196 @@
+"""Where the figures are in the image, from the rod joint positions (/joint_states): the figure mask.
+
+A figure of the ball's colour hanging down is a ball-sized patch of that colour from above, and a ball
+touching it merges with it; colour and shape alone cannot tell them apart. An instrumented table (and
+every simulator bag) knows the 16 rod joints, so the figures' boxes are known in the table frame: each box
+of the foos_sim model is posed with MuJoCo's forward kinematics, its 8 corners are projected with the
+camera found from the tag homography, and the convex hull of their images is the figure's footprint (a
+box's silhouette is exactly that hull). Pixels under a footprint are not ball evidence.
+
+ROS-free: plain numpy, OpenCV and MuJoCo.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import cv2
+import numpy as np
+
+from .errors import VisionError
+from .geometry import Lens, PlaneMapping, _focal_from_homography
+from .markers import BALL_CENTRE_HEIGHT
+
+# Pixels added around each footprint: anti-aliased edges, a joint reading a few ms off the frame, and the
+# focal length guessed from the field of view on a straight-down camera.
+MASK_MARGIN_PX = 2
+_CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+
+
+class JointStatesError(VisionError):
+    """Joint states that cannot be used (missing joints, nothing finite)."""
+
+
+def figure_joint_names() -> tuple[str, ...]:
+    from foos_sim.names import JOINT_NAMES
+
+    return JOINT_NAMES
+
+
+class FigureGeometry:
+    """The figures' boxes in the table frame for given rod joint positions (foos_sim's model)."""
+
+    def __init__(self, params_file: Optional[str] = None):
+        import mujoco
+
+        from foos_sim import load_model
+
+        self._mujoco = mujoco
+        self.model = load_model(params_file)
+        self.data = mujoco.MjData(self.model)
+        self.joint_names = figure_joint_names()
+        self._qpos = np.array([self.model.joint(n).qposadr[0] for n in self.joint_names])
+        names = [self.model.geom(i).name for i in range(self.model.ngeom)]
+        self.geoms = np.array([i for i, n in enumerate(names) if "_figure" in n
+                               and self.model.geom_type[i] == mujoco.mjtGeom.mjGEOM_BOX])
+        if len(self.geoms) == 0:
+            raise VisionError("the foos_sim model has no figure boxes (geoms named *_figure*)")
+        self._half = self.model.geom_size[self.geoms].copy()  # (G, 3) half extents
+
+    def corners(self, joints: np.ndarray) -> np.ndarray:
+        """(G, 8, 3) corners of every figure box, table frame, for the 16 joints in JOINT_NAMES order."""
+        self.data.qpos[self._qpos] = joints
+        self._mujoco.mj_kinematics(self.model, self.data)
+        centre = self.data.geom_xpos[self.geoms]  # (G, 3)
+        rot = self.data.geom_xmat[self.geoms].reshape(-1, 3, 3)
+        local = _CORNER_SIGNS[None, :, :] * self._half[:, None, :]  # (G, 8, 3)
+        return centre[:, None, :] + np.einsum("gij,gkj->gki", rot, local)
+
+
+def projection_from_mapping(mapping: PlaneMapping, image_size: tuple[int, int], camera_matrix: Optional[np.ndarray],
+                            fovy_hint: float = 50.0) -> np.ndarray:
+    """3x4 matrix taking table points (x, y, z) to undistorted pixels, from the ball-plane homography and the
+    intrinsics (given, or the focal length estimated from the homography, or the field-of-view hint)."""
+    h = mapping.table_to_image
+    k = camera_matrix
+    if k is None:
+        width, height = image_size
+        principal = np.array([width / 2 - 0.5, height / 2 - 0.5])
+        f = _focal_from_homography(h, principal)
+        if f is None:
+            # A straight-down view cannot reveal its focal length; the heights the mask needs (a figure is
+            # 10 cm tall, the camera about 1 m up) make a few per cent of error a fraction of a pixel.
+            f = (height / 2) / math.tan(math.radians(fovy_hint) / 2)
+        k = np.array([[f, 0, principal[0]], [0, f, principal[1]], [0, 0, 1.0]])
+    m = np.linalg.inv(k) @ h
+    lam = 1.0 / np.linalg.norm(m[:, 0])
+    if m[2, 2] < 0:
+        lam = -lam  # the plane is in front of the camera
+    r1, r2, t = lam * m[:, 0], lam * m[:, 1], lam * m[:, 2]
+    r1 /= np.linalg.norm(r1)
+    r2 = r2 - (r2 @ r1) * r1
+    r2 /= np.linalg.norm(r2)
+    r3 = np.cross(r1, r2)
+    if -(r3 @ t) < 0:
+        r3 = -r3  # the camera is above the table (+z), whatever the image's handedness
+    # Table point (x, y, z) -> plane coordinates (x, y, z - ball-centre height).
+    shift = np.eye(4)
+    shift[2, 3] = -BALL_CENTRE_HEIGHT
+    return k @ np.column_stack([r1, r2, r3, t]) @ shift
+
+
+class FigureMasker:
+    """The image footprint of every figure for given joint positions, under one camera."""
+
+    def __init__(self, geometry: FigureGeometry, projection: np.ndarray, lens: Lens, image_size: tuple[int, int],
+                 margin_px: int = MASK_MARGIN_PX):
+        self.geometry = geometry
+        self.projection = projection
+        self.lens = lens
+        self.width, self.height = image_size
+        self.margin_px = margin_px
+
+    def footprints(self, joints: np.ndarray) -> list[np.ndarray]:
+        """One convex polygon (pixels, distorted image) per figure box."""
+        corners = self.geometry.corners(joints)
+        g = corners.shape[0]
+        homogeneous = np.concatenate([corners.reshape(-1, 3), np.ones((g * 8, 1))], axis=1) @ self.projection.T
+        depth = homogeneous[:, 2]
+        pixels = homogeneous[:, :2] / np.where(np.abs(depth) < 1e-9, 1e-9, depth)[:, None]
+        pixels = self.lens.distort(pixels).reshape(g, 8, 2)
+        ok = (depth.reshape(g, 8) > 0).all(axis=1)
+        return [cv2.convexHull(np.round(p).astype(np.int32)) for p, good in zip(pixels, ok) if good]
+
+    def mask(self, joints: np.ndarray) -> np.ndarray:
+        """uint8 image, 255 under a figure (plus the margin)."""
+        mask = np.zeros((self.height, self.width), np.uint8)
+        for hull in self.footprints(joints):
+            cv2.fillConvexPoly(mask, hull, 255)
+        if self.margin_px > 0:
+            size = 2 * self.margin_px + 1
+            mask = cv2.dilate(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size)))
+        return mask
+
+
+@dataclass
+class JointTrack:
+    """Rod joint positions over time (16 columns in JOINT_NAMES order), looked up at frame times."""
+
+    t: np.ndarray  # (N,) s, sorted
+    position: np.ndarray  # (N, 16)
+    max_gap: float = 0.1  # s: farther than this from a reading, a frame gets no mask
+
+    def at(self, t: float) -> Optional[np.ndarray]:
+        """Linear interpolation between the readings around t (None outside the readings or across a gap)."""
+        n = len(self.t)
+        i = int(np.searchsorted(self.t, t))
+        if i < n and self.t[i] == t:
+            return self.position[i]
+        if i == 0:
+            return self.position[0] if self.t[0] - t <= self.max_gap / 2 else None
+        if i == n:
+            return self.position[-1] if t - self.t[-1] <= self.max_gap / 2 else None
+        t0, t1 = self.t[i - 1], self.t[i]
+        if t1 - t0 > self.max_gap:
+            return None
+        w = (t - t0) / (t1 - t0)
+        return (1 - w) * self.position[i - 1] + w * self.position[i]
+
+    def covers(self, t0: float, t1: float) -> bool:
+        return len(self.t) > 0 and self.t[0] <= t1 and self.t[-1] >= t0
+
+
+def joint_track(t: np.ndarray, names: list[str], position: np.ndarray, source: str) -> JointTrack:
+    """Columns reordered to JOINT_NAMES; rows with a NaN dropped. JointStatesError when unusable."""
+    wanted = figure_joint_names()
+    index = {n: i for i, n in enumerate(names)}
+    missing = [n for n in wanted if n not in index]
+    if missing:
+        raise JointStatesError(f"{source}: joint states lack {len(missing)} of the 16 rod joints "
+                               f"(e.g. {missing[0]}); the figure mask needs all of them")
+    position = np.asarray(position, float)[:, [index[n] for n in wanted]]
+    t = np.asarray(t, float)
+    good = np.isfinite(t) & np.all(np.isfinite(position), axis=1)
+    if not np.any(good):
+        raise JointStatesError(f"{source}: no joint-state message has finite positions for all 16 rod joints")
+    order = np.argsort(t[good], kind="stable")
+    return JointTrack(t[good][order], position[good][order])
+
+
+def read_joint_track(bag: str) -> JointTrack:
+    """The /joint_states of a bag as a JointTrack; VisionError with one line when the bag cannot give it."""
+    from foos_bag.bag_io import BagError, read_joint_states, topics
+
+    try:
+        available = topics(bag)
+    except (BagError, OSError, ValueError) as error:
+        raise JointStatesError(f"--joint-states {bag}: {error}") from None
+    if "/joint_states" not in available:
+        raise JointStatesError(f"--joint-states {bag}: the bag has no /joint_states topic "
+                               f"(topics: {', '.join(sorted(available)) or 'none'})")
+    try:
+        states = read_joint_states(bag)
+    except (BagError, OSError, ValueError) as error:
+        raise JointStatesError(f"--joint-states {bag}: {error}") from None
+    return joint_track(states.t, list(states.names), states.position, f"--joint-states {bag}")
