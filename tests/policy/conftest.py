@@ -1,15 +1,13 @@
-"""Shared fixtures of the policy tests: the workspace environment for subprocesses, and DDS domains."""
+"""Shared fixtures of the policy tests: the workspace environment for subprocesses (helpers the tests
+import are in policy_test_support.py)."""
 from __future__ import annotations
 
-import os
 import subprocess
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-# This area's ROS_DOMAIN_ID range is 60-79; each DDS test takes its own.
-DOMAIN_IDS = {"dds_game": 60, "policy_node_errors": 61, "policy_node_stale": 62}
 
 
 @pytest.fixture(scope="session")
@@ -37,12 +35,3 @@ def run_cli(ros_env, tmp_path):
                               timeout=timeout, env=env, cwd=tmp_path)
 
     return run
-
-
-def one_line_error(proc: subprocess.CompletedProcess) -> str:
-    """The stderr of a failed command: one line, no traceback."""
-    assert proc.returncode != 0, proc.stdout
-    lines = [line for line in proc.stderr.strip().splitlines() if line.strip()]
-    assert len(lines) == 1, proc.stderr
-    assert "Traceback" not in proc.stderr
-    return lines[0]

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import one_line_error
+from policy_test_support import one_line_error
 from foos_policy.metrics import COLUMNS, SMOOTHED
 
 

@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from conftest import DOMAIN_IDS, one_line_error
+from policy_test_support import DOMAIN_IDS, one_line_error
 from foos_policy.policies import shipped_policies
 
 GAME_WALL_S = 25.0
