@@ -17,10 +17,17 @@ def test_bench_small(tmp_path):
     results = run(0.6, cases, tmp_path, seed=7, echo=lines.append)
     text = "\n".join(lines)
     assert "median" in text and "throughput 640x480" in text and "onl%" in text
+    # Each case is tracked without and with the figure mask (fed the rendered joints): rows alternate.
+    assert [r["case"] for r in results] == [n for c in cases for n in (c.name, c.name + "+mask")], text
+    for plain, masked in zip(results[::2], results[1::2]):
+        assert masked["half_visible_frames"] == plain["half_visible_frames"], text
+        # 30 frames of a ball next to figures: the mask moves a few partly hidden frames' centres by 1-3 mm
+        # (the oblique case at this size: median 3.6 -> 4.2 mm); over 4 s it is no worse (docs/vision.md).
+        assert masked["median_mm"] < plain["median_mm"] + 1.0, text
     for r in results:
         assert r["colour"] == ("red" if "red" in r["case"] else "orange"), r
         assert r["detections"] > 0.5 * r["frames"], r
-        assert r["median_mm"] < 4.0, text
+        assert r["median_mm"] < (5.0 if r["case"].endswith("+mask") else 4.0), text
         assert r["recall"] > 0.8, text
         # The backward pass only adds frames before a track's start to what the forward pass found.
         assert r["recall"] >= r["online_recall"] and r["half_visible_frames"] > 0, text

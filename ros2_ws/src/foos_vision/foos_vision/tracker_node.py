@@ -2,8 +2,8 @@
 
 Stamps are the images' stamps (capture time). A frame without a ball publishes nothing.
 When /joint_states arrives (rod encoders, or sim_node), the figures are masked out of each frame: the
-latest joint state stamped at or before the image (at most 0.1 s older) poses the figures, and their
-pixels are not ball evidence. Without joint states (or -p figure_mask:=false) it tracks as before.
+joint states around the image's stamp (interpolated, or the latest one before it, at most 0.1 s older)
+pose the figures, and their pixels are not ball evidence. Without joint states (or -p figure_mask:=false) it tracks as before.
 
     ros2 run foos_vision tracker_node --ros-args -p markers:=table_markers.yaml -p ball_color:=yellow
 """
@@ -77,12 +77,17 @@ class TrackerNode(Node):
         self.joint_history.append((stamp, position))
 
     def joints_at(self, t: float):
-        """The latest joint positions stamped at or before t, if recent enough (None: no mask)."""
+        """The joint positions at t: interpolated between the readings around it once both have arrived,
+        else the latest reading at or before t if recent enough (None: no mask for this frame)."""
         stamps = [s for s, _ in self.joint_history]
         i = bisect.bisect_right(stamps, t + 1e-6)
         if i == 0 or t - stamps[i - 1] > JOINT_STATE_MAX_AGE:
             return None
-        return self.joint_history[i - 1][1]
+        before = self.joint_history[i - 1]
+        if i < len(stamps) and stamps[i] - before[0] <= JOINT_STATE_MAX_AGE and stamps[i] > before[0]:
+            w = (t - before[0]) / (stamps[i] - before[0])
+            return (1 - w) * before[1] + w * self.joint_history[i][1]
+        return before[1]
 
     def on_image(self, msg: Image) -> None:
         t = stamp_to_seconds(msg.header.stamp)
