@@ -4,7 +4,6 @@ for the ball."""
 from __future__ import annotations
 
 import math
-import signal
 import subprocess
 import time
 
@@ -14,7 +13,7 @@ import pytest
 import drawn_table as dt
 from foos_sim.names import JOINT_NAMES
 from test_figure_mask import RED_BGR, drawn_rod, joints
-from vision_helpers import workspace_env
+from vision_helpers import stop_node, workspace_env
 
 DOMAIN = 43
 FIGURES_ONLY, WITH_BALL = 90, 60
@@ -24,18 +23,6 @@ def start_tracker(markers, log, *extra: str) -> subprocess.Popen:
     args = ["ros2", "run", "foos_vision", "tracker_node", "--ros-args", "-p", f"markers:={markers}",
             "-p", "ball_color:=red", *extra]
     return subprocess.Popen(args, env=workspace_env(DOMAIN), stdout=log, stderr=subprocess.STDOUT)
-
-
-def stop(proc: subprocess.Popen) -> int:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            return proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
-            raise AssertionError("tracker_node ignored SIGINT")
-    return proc.returncode
 
 
 @pytest.mark.timeout(120)
@@ -114,7 +101,7 @@ def test_tracker_node_masks_figures_from_joint_states(tmp_path):
         while time.monotonic() < end:
             executor.spin_once(timeout_sec=0.05)
     finally:
-        codes = [stop(masked), stop(unmasked)]
+        codes = [stop_node(masked), stop_node(unmasked)]
         executor.shutdown()
         node.destroy_node()
         rclpy.shutdown(context=context)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from foos_vision.render import read_truth
-from vision_helpers import workspace_env
+from vision_helpers import stop_node, workspace_env
 
 
 def spawn(domain: int, executable: str, *params: str, log) -> subprocess.Popen:
@@ -17,18 +17,6 @@ def spawn(domain: int, executable: str, *params: str, log) -> subprocess.Popen:
     for p in params:
         args += ["-p", p]
     return subprocess.Popen(args, env=workspace_env(domain), stdout=log, stderr=subprocess.STDOUT)
-
-
-def stop(proc: subprocess.Popen) -> int:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            return proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
-            raise AssertionError("a node ignored SIGINT")
-    return proc.returncode
 
 
 @pytest.mark.timeout(120)
@@ -71,8 +59,8 @@ def test_video_source_to_tracker_node_stamps_are_capture_times(overhead_video, t
             executor.spin_once(timeout_sec=0.05)
     finally:
         if source is not None:
-            stop(source)
-        assert stop(tracker) == 0, (tmp_path / "tracker.log").read_text()
+            stop_node(source)
+        assert stop_node(tracker) == 0, (tmp_path / "tracker.log").read_text()
         executor.shutdown()
         node.destroy_node()
         rclpy.shutdown(context=context)

@@ -2,6 +2,7 @@
 runs them (`ros2 run foos_vision ...`). DDS tests use ROS_DOMAIN_ID from this area's range, 40-59."""
 from __future__ import annotations
 
+import signal
 import subprocess
 from pathlib import Path
 
@@ -34,3 +35,16 @@ def render(out: Path, *args: str, timeout: float = 120) -> Path:
     result = ros2_run("render_video", str(out), "--quiet", *args, timeout=timeout)
     assert result.returncode == 0, result.stderr
     return out
+
+
+def stop_node(proc: subprocess.Popen) -> int:
+    """Ctrl-C a node started with `ros2 run`; its exit code (a node that ignores SIGINT fails the test)."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+        try:
+            return proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+            raise AssertionError("a node ignored SIGINT")
+    return proc.returncode

@@ -11,7 +11,6 @@ ROS-free: plain numpy, OpenCV and MuJoCo.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Optional
 
@@ -19,7 +18,7 @@ import cv2
 import numpy as np
 
 from .errors import VisionError
-from .geometry import Lens, PlaneMapping, _focal_from_homography
+from .geometry import Lens, PlaneMapping, camera_matrix_for
 from .markers import BALL_CENTRE_HEIGHT
 
 # Pixels added around each footprint. None: the footprint is filled to sub-pixel precision, and a margin
@@ -101,16 +100,9 @@ def projection_from_mapping(mapping: PlaneMapping, image_size: tuple[int, int], 
     """3x4 matrix taking table points (x, y, z) to undistorted pixels, from the ball-plane homography and the
     intrinsics (given, or the focal length estimated from the homography, or the field-of-view hint)."""
     h = mapping.table_to_image
-    k = camera_matrix
-    if k is None:
-        width, height = image_size
-        principal = np.array([width / 2 - 0.5, height / 2 - 0.5])
-        f = _focal_from_homography(h, principal)
-        if f is None:
-            # A straight-down view cannot reveal its focal length; the heights the mask needs (a figure is
-            # 10 cm tall, the camera about 1 m up) make a few per cent of error a fraction of a pixel.
-            f = (height / 2) / math.tan(math.radians(fovy_hint) / 2)
-        k = np.array([[f, 0, principal[0]], [0, f, principal[1]], [0, 0, 1.0]])
+    # A straight-down view cannot reveal its focal length; the heights the mask needs (a figure is 10 cm
+    # tall, the camera about 1 m up) make a few per cent of error in the hint a fraction of a pixel.
+    k = camera_matrix_for(h, image_size, camera_matrix, fovy_hint)
     m = np.linalg.inv(k) @ h
     lam = 1.0 / np.linalg.norm(m[:, 0])
     if m[2, 2] < 0:

@@ -114,6 +114,20 @@ def _focal_from_homography(plane_to_image: np.ndarray, principal: np.ndarray) ->
     return f
 
 
+def camera_matrix_for(plane_to_image: np.ndarray, image_size: tuple[int, int], known: Optional[np.ndarray] = None,
+                      fovy_hint: float = 50.0) -> np.ndarray:
+    """The camera matrix: the known one, else the focal length the plane homography reveals (principal
+    point at the image centre), else, for a straight-down view that reveals none, the field-of-view hint."""
+    if known is not None:
+        return known
+    width, height = image_size
+    principal = np.array([width / 2 - 0.5, height / 2 - 0.5])
+    f = _focal_from_homography(plane_to_image, principal)
+    if f is None:
+        f = (height / 2) / math.tan(math.radians(fovy_hint) / 2)
+    return np.array([[f, 0, principal[0]], [0, f, principal[1]], [0, 0, 1.0]])
+
+
 def _camera_centre(plane_to_image: np.ndarray, k: np.ndarray) -> np.ndarray:
     """Camera centre in the plane's coordinates (x, y, height above the plane)."""
     m = np.linalg.inv(k) @ plane_to_image
@@ -164,15 +178,8 @@ def fit_mapping(
         camera_height = math.nan
         if abs(z_t - ball_height) > 1e-4:
             plane_to_image = np.linalg.inv(h)
-            if intrinsics is not None:
-                k = intrinsics.camera_matrix
-            else:
-                width, height = image_size
-                principal = np.array([width / 2 - 0.5, height / 2 - 0.5])
-                f = _focal_from_homography(plane_to_image, principal)
-                if f is None:
-                    f = (height / 2) / math.tan(math.radians(fovy_hint) / 2)
-                k = np.array([[f, 0, principal[0]], [0, f, principal[1]], [0, 0, 1.0]])
+            k = camera_matrix_for(plane_to_image, image_size, intrinsics.camera_matrix if intrinsics is not None else None,
+                                  fovy_hint)
             centre = _camera_centre(plane_to_image, k)
             camera_height = float(centre[2]) - (ball_height - z_t)
             # Along each ray from the camera: the plane point p_t at z_t maps to the ball plane point
