@@ -222,8 +222,7 @@ def run(config: PlayConfig, ros_args: list[str] | None = None) -> int:
     finally:
         if player is not None:
             player.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
+        rclpy.try_shutdown()  # a signal may already have shut the context down
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -233,8 +233,7 @@ def run(config: RecordConfig | None, args: list[str] | None = None) -> int:
         if recorder is not None:
             recorder.writer.close()  # no-op after finish(); on any error it keeps what was recorded
             recorder.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
+        rclpy.try_shutdown()  # a signal may already have shut the context down
 
 
 def main(args: list[str] | None = None) -> None:

@@ -15,6 +15,7 @@ import sys
 import rclpy
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.time import Time
@@ -95,8 +96,14 @@ class PolicyNode(Node):
                 f"p95 {stats['p95_ms']:.2f} ms, max {stats['max_ms']:.2f} ms")
 
     def stop_rods(self) -> None:
-        if rclpy.ok():
+        """A last zero command on the way out. Ctrl-C shuts the context down from rclpy's signal handler,
+        which can happen between any check and the publish; then the table's own watchdog stops the rods."""
+        if not rclpy.ok():
+            return
+        try:
             self.command_pub.publish(Float64MultiArray(data=[0.0] * 8))
+        except RCLError:
+            pass
 
 
 def main(args=None) -> int:
