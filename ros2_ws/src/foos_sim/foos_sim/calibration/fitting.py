@@ -167,6 +167,13 @@ def fit_states(batch: SegmentBatch, theta: np.ndarray, states0: np.ndarray | Non
 
 
 MAX_DENT_DEPTH = 0.006  # m: the matched filter's depth limit (dents worth naming are 1-4 mm)
+DENT_REACH = 0.04  # m: how far a neighbourhood search may move a dent's centre (and 3 cm its radius)
+
+
+def _centres_around(centre, reach: float, step: float = 0.01) -> np.ndarray:
+    """A square grid of candidate dent centres (C, 2) within `reach` of `centre` in x and y."""
+    offsets = np.arange(-reach, reach + step / 100, step)
+    return np.stack([a.ravel() for a in np.meshgrid(centre[0] + offsets, centre[1] + offsets)], axis=1)
 
 
 def _dent_gains(path, w, tau, h, residual, centres, radii):
@@ -236,17 +243,12 @@ def dent_search(batch: SegmentBatch, base: Fit, half=(0.34, 0.60), around: np.nd
     np.add.at(w, (rows, near[batch.mask]), 1.0)
     tau = np.arange(K) * h
     if around is not None:
-        fx = around[0] + np.arange(-0.04, 0.0401, 0.01)
-        fy = around[1] + np.arange(-0.04, 0.0401, 0.01)
-        centres = np.stack([a.ravel() for a in np.meshgrid(fx, fy)], axis=1)
         radii = np.clip(around[2] + np.array([-0.03, -0.015, 0.0, 0.015, 0.03]), 0.04, 0.2)
-        return _dent_gains(path, w, tau, h, residual, centres, radii)
+        return _dent_gains(path, w, tau, h, residual, _centres_around(around, DENT_REACH), radii)
     xs = np.arange(-half[0] + 0.04, half[0] - 0.04 + 1e-9, 0.04)
     ys = np.arange(-half[1] + 0.04, half[1] - 0.04 + 1e-9, 0.04)
     centres = np.stack([a.ravel() for a in np.meshgrid(xs, ys)], axis=1)
     coarse, _ = _dent_gains(path, w, tau, h, residual, centres, (0.05, 0.08, 0.12, 0.16))
-    fx = coarse[0] + np.arange(-0.03, 0.0301, 0.01)
-    fy = coarse[1] + np.arange(-0.03, 0.0301, 0.01)
-    centres = np.stack([a.ravel() for a in np.meshgrid(fx, fy)], axis=1)
     radii = np.clip(coarse[2] + np.array([-0.02, 0.0, 0.02]), 0.04, 0.2)
+    centres = _centres_around(coarse, 0.03)
     return _dent_gains(path, w, tau, h, residual, centres, radii)

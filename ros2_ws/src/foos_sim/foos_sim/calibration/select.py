@@ -19,7 +19,7 @@ from typing import Callable
 import numpy as np
 
 from . import surrogate
-from .fitting import MAX_DENT_DEPTH, Fit, SegmentBatch, dent_search, fit, fit_states, predicted_drops
+from .fitting import DENT_REACH, MAX_DENT_DEPTH, Fit, SegmentBatch, dent_search, fit, fit_states, predicted_drops
 from .tracks import Segment
 
 ROLLING_CANDIDATES = ("table_tilt", "rolling_resistance", "viscous_damping", "air_drag", "surface_dent")
@@ -96,7 +96,6 @@ class HeldOut:
         return rss, thetas
 
 
-DENT_REACH = 0.04  # m: how far the neighbourhood search may move a dent's centre (and 3 cm its radius)
 LOO_MIN_GAIN = 10.0  # noise variances the other rolls' dent must explain of their own data to be tested
 
 
