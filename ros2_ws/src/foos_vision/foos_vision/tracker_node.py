@@ -3,15 +3,18 @@
 Stamps are the images' stamps (capture time). A frame without a ball publishes nothing.
 When /joint_states arrives (rod encoders, or sim_node), the figures are masked out of each frame: the
 joint states around the image's stamp (interpolated, or the latest one before it, at most 0.1 s older)
-pose the figures, and their pixels are not ball evidence. Without joint states (or -p figure_mask:=false) it tracks as before.
+pose the figures, and their pixels are not ball evidence. A frame newer than every reading waits for
+the reading of its time (at most 0.1 s of stamps or 0.25 s of wall time; see joint_sync), and the
+readings are taken best effort: for the mask the newest reading matters, and a reliable stream holds
+every later reading back while a lost one is sent again (seconds, on a loaded machine). Without joint
+states (or -p figure_mask:=false) it tracks as before, without waiting.
 
     ros2 run foos_vision tracker_node --ros-args -p markers:=table_markers.yaml -p ball_color:=yellow
 """
 from __future__ import annotations
 
-import bisect
 import sys
-from collections import deque
+import time
 
 import numpy as np
 import rclpy
@@ -19,6 +22,7 @@ from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, JointState
 
 from .camera import load_intrinsics
@@ -27,9 +31,11 @@ from .errors import VisionError
 from .markers import DEFAULT_MARKERS_FILE, load_markers
 from .ros_common import image_to_bgr, stamp_to_seconds
 from .figure_mask import FigureGeometry, figure_joint_names
+from .joint_sync import JointSync, ReadyFrame
 from .tracker import BallTracker, TrackerConfig
 
-JOINT_STATE_MAX_AGE = 0.1  # s: an older reading no longer says where a kicking figure is
+# Best effort, deep enough for 0.25 s of 400 Hz encoders while a frame is being tracked.
+JOINT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
 class TrackerNode(Node):
@@ -50,10 +56,11 @@ class TrackerNode(Node):
         )
         figures = None
         self.joint_names = figure_joint_names()
-        self.joint_history: deque = deque(maxlen=400)  # (stamp, positions), by stamp
+        self.sync = JointSync()
         if self.get_parameter("figure_mask").value:
             figures = FigureGeometry(self.get_parameter("params_file").value or None)
-            self.create_subscription(JointState, "/joint_states", self.on_joint_states, 50)
+            self.create_subscription(JointState, "/joint_states", self.on_joint_states, JOINT_QOS)
+            self.create_timer(0.05, self.on_timer)
         self.tracker = BallTracker(markers, config, figures)
         self.warned_joints = False
         self.detection_pub = self.create_publisher(PointStamped, "/ball/detection", 50)
@@ -71,29 +78,22 @@ class TrackerNode(Node):
         position = np.array([msg.position[index[n]] for n in self.joint_names], float)
         if not np.all(np.isfinite(position)):
             return
-        stamp = stamp_to_seconds(msg.header.stamp)
-        if self.joint_history and stamp < self.joint_history[-1][0]:
-            self.joint_history.clear()  # time went backwards (a bag replayed again): start over
-        self.joint_history.append((stamp, position))
+        self.track(self.sync.add_joints(stamp_to_seconds(msg.header.stamp), position))
 
-    def joints_at(self, t: float):
-        """The joint positions at t: interpolated between the readings around it once both have arrived,
-        else the latest reading at or before t if recent enough (None: no mask for this frame)."""
-        stamps = [s for s, _ in self.joint_history]
-        i = bisect.bisect_right(stamps, t + 1e-6)
-        if i == 0 or t - stamps[i - 1] > JOINT_STATE_MAX_AGE:
-            return None
-        before = self.joint_history[i - 1]
-        if i < len(stamps) and stamps[i] - before[0] <= JOINT_STATE_MAX_AGE and stamps[i] > before[0]:
-            w = (t - before[0]) / (stamps[i] - before[0])
-            return (1 - w) * before[1] + w * self.joint_history[i][1]
-        return before[1]
+    def on_timer(self) -> None:
+        self.track(self.sync.due(time.monotonic()))
 
     def on_image(self, msg: Image) -> None:
-        t = stamp_to_seconds(msg.header.stamp)
+        self.track(self.sync.add_frame(stamp_to_seconds(msg.header.stamp), msg, time.monotonic()))
+
+    def track(self, frames: list[ReadyFrame]) -> None:
+        for ready in frames:
+            self.track_one(ready.payload, ready.stamp, ready.joints)
+
+    def track_one(self, msg: Image, t: float, joints) -> None:
         try:
             frame = image_to_bgr(msg)
-            detection = self.tracker.process(frame, t, self.joints_at(t))
+            detection = self.tracker.process(frame, t, joints)
         except ValueError as error:
             self.get_logger().warning(f"frame at {t:.3f} s skipped: {error}")
             return
