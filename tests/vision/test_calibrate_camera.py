@@ -67,3 +67,39 @@ def test_calibrate_camera_without_a_board_says_so(tmp_path):
     result = ros2_run("calibrate_camera", str(tmp_path / "blank.png"), "--out", str(tmp_path / "c.yaml"))
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and "INNER corners" in result.stderr
+
+
+# A wide fisheye (110 degrees of vertical field, OpenCV's equidistant model) and its boards, drawn by
+# foos_vision.boards through that exact lens.
+FISHEYE = dict(width=640, height=480, fovy=110.0, model="fisheye", distortion=(0.06, -0.03, 0.012, -0.004))
+
+
+@pytest.mark.timeout(120)
+def test_calibrate_camera_fisheye_recovers_the_lens(tmp_path):
+    from foos_vision.boards import board_views
+    from foos_vision.camera import CameraConfig, load_intrinsics
+    from foos_vision.geometry import Lens
+
+    camera = CameraConfig(**FISHEYE)
+    for i, image in enumerate(board_views(camera, 12, board=(9, 6), square=SQUARE_M, seed=2)):
+        cv2.imwrite(str(tmp_path / f"view{i:02d}.png"), image)
+    out = tmp_path / "fisheye.yaml"
+    result = ros2_run("calibrate_camera", str(tmp_path), "--board", "9x6", "--square", str(SQUARE_M), "--fisheye",
+                      "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    fitted = load_intrinsics(out)
+    assert fitted.fisheye and yaml.safe_load(out.read_text())["rms_reprojection_error_px"] < 0.3
+    truth = camera.camera_matrix()
+    assert abs(fitted.camera_matrix[0, 0] - truth[0, 0]) / truth[0, 0] < 0.01
+    assert np.allclose(fitted.camera_matrix[:2, 2], truth[:2, 2], atol=2.0)
+    # The k terms trade off against each other, so the lens is judged by what it does: across the image,
+    # out to 0.9 of the way to its corners (where few boards reach), the fitted lens puts every ray within a
+    # pixel of the true one, most within a third of one.
+    k = truth
+    grid = np.stack(np.meshgrid(np.linspace(-0.9, 0.9, 15), np.linspace(-0.9, 0.9, 15)), -1).reshape(-1, 2)
+    pixels = k[:2, 2] + grid * k[:2, 2]
+    rays = Lens(camera.intrinsics()).undistort(pixels)
+    moved = Lens(fitted).distort(rays)
+    off = np.linalg.norm(moved - pixels, axis=1)
+    assert np.max(off) < 1.0 and np.median(off) < 0.3, off
+    assert np.allclose(fitted.dist_coeffs, camera.distortion, atol=0.03)

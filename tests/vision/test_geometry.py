@@ -74,6 +74,40 @@ def test_lens_undistort_inverts_distort():
     assert np.allclose(lens.undistort(lens.distort(pixels)), pixels, atol=1e-3)
 
 
+def test_fisheye_lens_maps_to_the_pinhole_of_the_same_camera_matrix():
+    """Lens(fisheye) takes the image of cv2.fisheye to the ideal pinhole with the same K and back; it agrees
+    with the camera's own projection; a fisheye with k = 0 is still no pinhole."""
+    from foos_vision.camera import CameraConfig
+
+    camera = CameraConfig(width=1920, height=1080, fovy=76.0, position=(0.0, 0.0, 1.0), model="fisheye",
+                          distortion=(0.05, -0.02, 0.01, -0.005))
+    lens = Lens(camera.intrinsics())
+    points = np.array([[0.0, 0.0, 0.0175], [0.6, 0.7, 0.0175], [-0.34, 0.6, 0.0175], [0.3, -0.2, 0.1]])
+    fisheye_pixels = camera.project(points)
+    pinhole_pixels = camera.project(points, distorted=False)
+    assert np.allclose(lens.undistort(fisheye_pixels), pinhole_pixels, atol=1e-3)
+    assert np.allclose(lens.distort(pinhole_pixels), fisheye_pixels, atol=1e-3)
+    # The table's corner is ~40 degrees off axis: the equidistant image is far inside the pinhole's.
+    assert np.linalg.norm(pinhole_pixels[1] - fisheye_pixels[1]) > 50
+    plain = Lens(camera.with_(distortion=(0.0, 0.0, 0.0, 0.0)).intrinsics())
+    assert plain.active and not np.allclose(plain.undistort(fisheye_pixels[1:2]), fisheye_pixels[1:2])
+
+
+def test_fisheye_render_camera_covers_the_image_up_to_its_size_limit():
+    from foos_vision.camera import FISHEYE_RENDER_SCALE, load_camera
+
+    camera = load_camera("fisheye")
+    assert camera.fisheye and (camera.width, camera.height, camera.fps) == (1920, 1080, 25.0)
+    ideal = camera.render_camera()
+    assert not ideal.fisheye and ideal.distortion == ()
+    assert np.isclose(ideal.camera_matrix()[0, 0], camera.camera_matrix()[0, 0])  # as sharp at the centre
+    assert ideal.width <= FISHEYE_RENDER_SCALE * camera.width and ideal.height <= FISHEYE_RENDER_SCALE * camera.height
+    # Every tag of the shipped layout is inside the ideal render, so nothing on the table goes black.
+    tags = np.array([[x, y, 0.0175] for x, y, _ in load_markers().positions.values()])
+    pixels = ideal.project(tags, distorted=False)
+    assert np.all((pixels > 0) & (pixels < (ideal.width, ideal.height)))
+
+
 def test_too_few_or_foreign_tags_are_a_markers_error():
     camera = load_camera("overhead")
     layout = layout_at(BALL_CENTRE_HEIGHT)
@@ -102,7 +136,7 @@ def test_bad_markers_files(tmp_path, text, reason):
 
 def test_shipped_configs_load():
     assert len(load_markers().positions) == 6
-    for name in ("overhead", "oblique"):
+    for name in ("overhead", "oblique", "fisheye"):
         camera = load_camera(name)
         axes = camera.axes()
         assert np.allclose(axes @ axes.T, np.eye(3))

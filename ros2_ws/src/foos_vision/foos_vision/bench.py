@@ -173,7 +173,7 @@ def load_intrinsics_from_camera(path: Path):
 
     tree = yaml.safe_load(path.read_text())["intrinsics"]
     return Intrinsics(np.asarray(tree["camera_matrix"], float), np.asarray(tree["dist_coeffs"], float),
-                      int(tree["image_width"]), int(tree["image_height"]))
+                      int(tree["image_width"]), int(tree["image_height"]), tree.get("model", "pinhole"))
 
 
 def format_row(r: dict) -> str:

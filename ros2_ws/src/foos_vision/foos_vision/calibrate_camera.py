@@ -1,4 +1,5 @@
-"""calibrate_camera: camera intrinsics (OpenCV pinhole + distortion) from checkerboard images or a video."""
+"""calibrate_camera: camera intrinsics (OpenCV pinhole + distortion, or cv2.fisheye) from checkerboard
+images or a video."""
 from __future__ import annotations
 
 import argparse
@@ -15,7 +16,14 @@ cv2.calibrateCamera does, and write them as YAML for `track_video --intrinsics` 
 Give image files, a directory of images, or a video (every --step-th frame is tried).
 --board is the count of INNER corners (columns x rows), e.g. 9x6 for a 10x7-square board.
 
-Example:  calibrate_camera board_video.mp4 --board 9x6 --square 0.025 --out camera.yaml
+With --fisheye the lens is OpenCV's fisheye model (cv2.fisheye.calibrate: equidistant projection,
+k1..k4), for wide lenses where the pinhole's k1, k2, p1, p2, k3 cannot follow the edges; the YAML then
+says `model: fisheye`. Views that fill the corners of the image pin k down; a board only ever seen in
+the middle leaves it loose.
+
+Examples:
+  calibrate_camera board_video.mp4 --board 9x6 --square 0.025 --out camera.yaml
+  calibrate_camera shots/ --board 9x6 --square 0.03 --fisheye --out fisheye.yaml
 """
 
 
@@ -28,6 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="intrinsics YAML to write")
     p.add_argument("--step", type=int, default=10, help="use every step-th video frame (default 10)")
     p.add_argument("--max-views", type=int, default=40, help="views used at most (default 40)")
+    p.add_argument("--fisheye", action="store_true", help="fit OpenCV's fisheye model (k1..k4) instead of the pinhole one")
     return p
 
 
@@ -90,11 +99,39 @@ def calibrate(args: argparse.Namespace) -> int:
     if len(image_points) < 3:
         raise VisionError(f"the {args.board} board was found in {len(image_points)} of {tried} images; "
                           f"at least 3 views are needed (check --board: INNER corners)")
-    rms, matrix, dist, _, _ = cv2.calibrateCamera(object_points, image_points, size, None, None)
-    Intrinsics(matrix, dist.ravel(), size[0], size[1]).to_yaml(args.out, rms)
+    if args.fisheye:
+        rms, matrix, dist = _calibrate_fisheye(object_points, image_points, size)
+    else:
+        rms, matrix, dist, _, _ = cv2.calibrateCamera(object_points, image_points, size, None, None)
+    if not (np.all(np.isfinite(matrix)) and np.all(np.isfinite(dist)) and np.isfinite(rms)):
+        raise VisionError("the calibration did not converge (NaN); use more views, from several angles")
+    Intrinsics(matrix, dist.ravel(), size[0], size[1], "fisheye" if args.fisheye else "pinhole").to_yaml(args.out, rms)
     print(f"calibrate_camera: {len(image_points)} views, RMS reprojection error {rms:.3f} px, "
           f"fx {matrix[0, 0]:.1f} px, k1 {dist.ravel()[0]:+.4f} -> {args.out}")
     return 0
+
+
+def _fisheye_flag(name: str) -> int:
+    import cv2
+
+    # OpenCV 4 keeps the fisheye flags in cv2.fisheye; OpenCV 5 has one set of CALIB_ flags.
+    return int(getattr(cv2.fisheye, name, None) or getattr(cv2, name))
+
+
+def _calibrate_fisheye(object_points, image_points, size):
+    import cv2
+
+    flags = _fisheye_flag("CALIB_RECOMPUTE_EXTRINSIC") | _fisheye_flag("CALIB_FIX_SKEW")
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-9)
+    objects = [p.reshape(1, -1, 3).astype(np.float64) for p in object_points]
+    images = [p.reshape(1, -1, 2).astype(np.float64) for p in image_points]
+    try:
+        rms, matrix, dist, _, _ = cv2.fisheye.calibrate(objects, images, size, np.eye(3), np.zeros((4, 1)),
+                                                        flags=flags, criteria=criteria)
+    except cv2.error as error:
+        message = str(error).strip().splitlines()[-1] if str(error).strip() else "cv2.error"
+        raise VisionError(f"the fisheye calibration failed ({message}); use more views, from several angles") from None
+    return rms, matrix, dist
 
 
 def main(argv=None) -> None:

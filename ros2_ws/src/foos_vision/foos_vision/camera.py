@@ -1,8 +1,11 @@
-"""Pinhole camera description shared by the renderer and the tracker.
+"""Camera description shared by the renderer and the tracker: a pinhole with OpenCV distortion, or a
+fisheye (OpenCV's cv2.fisheye equidistant model).
 
 A camera YAML gives the pose (position, look_at, up), the vertical field of view, the image size,
-the frame rate and optional OpenCV distortion [k1, k2, p1, p2, k3]. `intrinsics_file` YAMLs (written
-by calibrate_camera) hold camera_matrix and dist_coeffs, the OpenCV names.
+the frame rate, the lens `model` (`pinhole`, the default, or `fisheye`) and its `distortion`:
+[k1, k2, p1, p2, k3] for a pinhole, [k1, k2, k3, k4] for a fisheye. Intrinsics YAMLs (written by
+calibrate_camera) hold camera_matrix and dist_coeffs, the OpenCV names, and `model: fisheye` for a
+fisheye lens.
 """
 from __future__ import annotations
 
@@ -16,6 +19,12 @@ import yaml
 from .errors import CameraConfigError
 
 CONFIG_DIR = Path(__file__).resolve().parent / "config"
+LENS_MODELS = ("pinhole", "fisheye")
+# The renderer films a pinhole; a fisheye image is remapped from a larger pinhole render of the same focal
+# length (as sharp as the fisheye at the image centre, sharper off it). A wide fisheye's corners look
+# more than 60 degrees off axis, where that render would grow without bound (tan theta), so it is at most
+# this many times the output per axis, and rays beyond it render black, like a real fisheye's vignette.
+FISHEYE_RENDER_SCALE = 1.5
 
 
 @dataclass(frozen=True)
@@ -29,6 +38,7 @@ class CameraConfig:
     up: tuple[float, float, float] = (-1.0, 0.0, 0.0)
     fovy: float = 45.0
     distortion: tuple[float, ...] = field(default_factory=tuple)
+    model: str = "pinhole"  # or "fisheye": r = f * theta_d, theta_d = theta (1 + k1 theta^2 + ... + k4 theta^8)
 
     def with_(self, **changes) -> "CameraConfig":
         return replace(self, **{k: v for k, v in changes.items() if v is not None})
@@ -46,13 +56,44 @@ class CameraConfig:
         y = np.cross(z, x)
         return np.stack([x, y, z])
 
+    @property
+    def fisheye(self) -> bool:
+        return self.model == "fisheye"
+
     def camera_matrix(self) -> np.ndarray:
-        """OpenCV K for the ideal pinhole (pixel centres at integer coordinates)."""
-        f = (self.height / 2.0) / math.tan(math.radians(self.fovy) / 2.0)
+        """OpenCV K (pixel centres at integer coordinates). fovy is the vertical field of view: of the
+        pinhole, or of a fisheye's equidistant projection (r = f theta, before its k terms)."""
+        half = math.radians(self.fovy) / 2.0
+        f = (self.height / 2.0) / (half if self.fisheye else math.tan(half))
         return np.array([[f, 0.0, self.width / 2.0 - 0.5], [0.0, f, self.height / 2.0 - 0.5], [0.0, 0.0, 1.0]])
 
+    def intrinsics(self) -> "Intrinsics":
+        return Intrinsics(self.camera_matrix(), self.dist_coeffs(), self.width, self.height, self.model)
+
+    def render_camera(self, max_scale: float = FISHEYE_RENDER_SCALE) -> "CameraConfig":
+        """The ideal pinhole the scene is rendered with before the lens is applied: this camera without its
+        distortion, or for a fisheye a pinhole of the same focal length, large enough for every ray of the
+        fisheye image up to max_scale times its size per axis."""
+        if not self.fisheye:
+            return self.with_(distortion=())
+        import cv2
+
+        k = self.camera_matrix()
+        w, h = self.width, self.height
+        edge = np.linspace(0.0, 1.0, 64)
+        border = np.concatenate([np.c_[edge * (w - 1), np.zeros(64)], np.c_[edge * (w - 1), np.full(64, h - 1.0)],
+                                 np.c_[np.zeros(64), edge * (h - 1)], np.c_[np.full(64, w - 1.0), edge * (h - 1)]])
+        rays = cv2.fisheye.undistortPoints(border.reshape(-1, 1, 2), k, self.dist_coeffs()).reshape(-1, 2)
+        rays = rays[np.all(np.isfinite(rays), axis=1)]
+        f = k[0, 0]
+        reach = np.abs(rays).max(axis=0) if len(rays) else np.array([np.inf, np.inf])
+        width = int(min(2 * math.ceil(f * reach[0] + 1), 2 * math.ceil(max_scale * w / 2)))
+        height = int(min(2 * math.ceil(f * reach[1] + 1), 2 * math.ceil(max_scale * h / 2)))
+        fovy = math.degrees(2 * math.atan((height / 2) / f))
+        return replace(self, width=width, height=height, fovy=fovy, distortion=(), model="pinhole")
+
     def dist_coeffs(self) -> np.ndarray:
-        d = np.zeros(5)
+        d = np.zeros(4 if self.fisheye else 5)
         d[: len(self.distortion)] = self.distortion
         return d
 
@@ -71,6 +112,10 @@ class CameraConfig:
         import cv2
 
         rvec, tvec = self.rvec_tvec()
+        if distorted and self.fisheye:
+            pixels, _ = cv2.fisheye.projectPoints(np.asarray(points, float).reshape(-1, 1, 3), rvec, tvec,
+                                                  self.camera_matrix(), self.dist_coeffs())
+            return pixels.reshape(-1, 2)
         dist = self.dist_coeffs() if distorted else np.zeros(5)
         pixels, _ = cv2.projectPoints(np.asarray(points, float).reshape(-1, 1, 3), rvec, tvec, self.camera_matrix(), dist)
         return pixels.reshape(-1, 2)
@@ -113,11 +158,17 @@ def load_camera(path: str | Path | None) -> CameraConfig:
                 values[key] = int(value)
             elif key in ("fps", "fovy"):
                 values[key] = float(value)
+            elif key == "model":
+                values[key] = str(value)
+                if values[key] not in LENS_MODELS:
+                    raise ValueError(f"`model` is one of {', '.join(LENS_MODELS)}, not `{value}`")
             else:
                 values[key] = str(value)
         config = CameraConfig(**values)
     except (TypeError, ValueError) as error:
         raise CameraConfigError(f"{candidate}: {error}") from None
+    if config.fisheye and len(config.distortion) > 4:
+        raise CameraConfigError(f"{candidate}: a fisheye lens has 4 coefficients k1..k4, not {len(config.distortion)}")
     if config.width < 16 or config.height < 16 or not (0 < config.fovy < 170) or config.fps <= 0:
         raise CameraConfigError(f"{candidate}: width/height >= 16, 0 < fovy < 170 and fps > 0 are required")
     config.axes()
@@ -132,9 +183,15 @@ class Intrinsics:
     dist_coeffs: np.ndarray
     width: int
     height: int
+    model: str = "pinhole"  # or "fisheye" (cv2.fisheye, dist_coeffs = k1..k4)
+
+    @property
+    def fisheye(self) -> bool:
+        return self.model == "fisheye"
 
     def to_yaml(self, path: str | Path, rms: float | None = None) -> None:
         tree = {
+            "model": self.model,
             "image_width": int(self.width),
             "image_height": int(self.height),
             "camera_matrix": self.camera_matrix.round(6).tolist(),
@@ -151,13 +208,20 @@ def load_intrinsics(path: str | Path) -> Intrinsics:
         raise CameraConfigError(f"intrinsics file not found: {path}")
     try:
         tree = yaml.safe_load(path.read_text()) or {}
+        if isinstance(tree.get("intrinsics"), dict):
+            tree = tree["intrinsics"]  # render_video's OUT.camera.yaml carries them in this block
         matrix = np.asarray(tree["camera_matrix"], float).reshape(3, 3)
         dist = np.asarray(tree.get("dist_coeffs", []), float).ravel()
         width, height = int(tree["image_width"]), int(tree["image_height"])
+        model = str(tree.get("model", "pinhole"))
     except (yaml.YAMLError, KeyError, TypeError, ValueError) as error:
         raise CameraConfigError(
             f"{path}: intrinsics need image_width, image_height, camera_matrix (3x3) and dist_coeffs ({error})"
         ) from None
     if not np.all(np.isfinite(matrix)) or not np.all(np.isfinite(dist)):
         raise CameraConfigError(f"{path}: intrinsics contain NaN or infinite values")
-    return Intrinsics(matrix, dist, width, height)
+    if model not in LENS_MODELS:
+        raise CameraConfigError(f"{path}: `model` is one of {', '.join(LENS_MODELS)}, not `{model}`")
+    if model == "fisheye" and len(dist) != 4:
+        raise CameraConfigError(f"{path}: a fisheye lens needs 4 dist_coeffs (k1..k4), not {len(dist)}")
+    return Intrinsics(matrix, dist, width, height, model)

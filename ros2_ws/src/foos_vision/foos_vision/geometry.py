@@ -38,29 +38,37 @@ def tag_centre(corners: np.ndarray) -> np.ndarray:
 
 
 class Lens:
-    """Undistortion of points (not images: the tracker only needs a few points per frame)."""
+    """Undistortion of points (not images: the tracker only needs a few points per frame). "Undistorted"
+    pixels are those of a pinhole with the same camera matrix; a fisheye lens (cv2.fisheye) maps to them
+    and back with cv2.fisheye.undistortPoints / distortPoints."""
 
     def __init__(self, intrinsics: Optional[Intrinsics]):
         self.intrinsics = intrinsics
-        self.active = intrinsics is not None and bool(np.any(intrinsics.dist_coeffs))
+        # A fisheye with k = 0 is still no pinhole (r = f theta, not f tan theta).
+        self.active = intrinsics is not None and (intrinsics.fisheye or bool(np.any(intrinsics.dist_coeffs)))
 
     def undistort(self, pixels: np.ndarray) -> np.ndarray:
         pixels = np.asarray(pixels, float).reshape(-1, 2)
-        if not self.active:
+        if not self.active or len(pixels) == 0:
             return pixels
-        k = self.intrinsics.camera_matrix
-        out = cv2.undistortPoints(pixels.reshape(-1, 1, 2), k, self.intrinsics.dist_coeffs, R=None, P=k,
-                                  criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-6))
+        k, d = self.intrinsics.camera_matrix, self.intrinsics.dist_coeffs
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-6)
+        if self.intrinsics.fisheye:
+            out = cv2.fisheye.undistortPoints(pixels.reshape(-1, 1, 2), k, d, R=np.eye(3), P=k, criteria=criteria)
+        else:
+            out = cv2.undistortPoints(pixels.reshape(-1, 1, 2), k, d, R=None, P=k, criteria=criteria)
         return out.reshape(-1, 2)
 
     def distort(self, pixels: np.ndarray) -> np.ndarray:
         pixels = np.asarray(pixels, float).reshape(-1, 2)
-        if not self.active:
+        if not self.active or len(pixels) == 0:
             return pixels
-        k = self.intrinsics.camera_matrix
+        k, d = self.intrinsics.camera_matrix, self.intrinsics.dist_coeffs
         normalised = (pixels - k[:2, 2]) / np.diag(k)[:2]
+        if self.intrinsics.fisheye:
+            return cv2.fisheye.distortPoints(normalised.reshape(-1, 1, 2), k, d).reshape(-1, 2)
         points = np.concatenate([normalised, np.ones((len(pixels), 1))], axis=1)
-        out, _ = cv2.projectPoints(points.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, self.intrinsics.dist_coeffs)
+        out, _ = cv2.projectPoints(points.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
         return out.reshape(-1, 2)
 
 

@@ -43,14 +43,26 @@ class FrameTruth:
 
 
 class DistortionMap:
-    """Warps an ideal pinhole render into the image a lens with OpenCV distortion coefficients makes."""
+    """Warps an ideal pinhole render (camera.render_camera()) into the image the lens makes: OpenCV
+    distortion coefficients, or a cv2.fisheye lens. Each image pixel looks up where its ray meets the ideal
+    render; rays outside it (or beyond 90 degrees off axis) are black."""
 
     def __init__(self, camera: CameraConfig):
         k, d = camera.camera_matrix(), camera.dist_coeffs()
+        ideal_camera = camera.render_camera()
         u, v = np.meshgrid(np.arange(camera.width, dtype=np.float32), np.arange(camera.height, dtype=np.float32))
         distorted = np.stack([u.ravel(), v.ravel()], axis=1).reshape(-1, 1, 2)
         criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-4)
-        ideal = cv2.undistortPoints(distorted, k, d, R=None, P=k, criteria=criteria).reshape(camera.height, camera.width, 2)
+        if camera.fisheye:
+            rays = cv2.fisheye.undistortPoints(distorted, k, d, criteria=criteria).reshape(-1, 2)
+            # Where the lens polynomial stops rising, undistortion returns rays from behind the camera.
+            theta_d = np.linalg.norm((distorted.reshape(-1, 2) - k[:2, 2]) / np.diag(k)[:2], axis=1)
+            back = ~np.all(np.isfinite(rays), axis=1) | (theta_d >= math.pi / 2)
+            rays[back] = 1e6
+            ideal_k = ideal_camera.camera_matrix()
+            ideal = (rays * np.diag(ideal_k)[:2] + ideal_k[:2, 2]).reshape(camera.height, camera.width, 2)
+        else:
+            ideal = cv2.undistortPoints(distorted, k, d, R=None, P=k, criteria=criteria).reshape(camera.height, camera.width, 2)
         self.map_x, self.map_y = cv2.convertMaps(ideal[..., 0].astype(np.float32), ideal[..., 1].astype(np.float32),
                                                  cv2.CV_16SC2)
 
@@ -64,18 +76,22 @@ class SceneRenderer:
     def __init__(self, base_mjcf: str, layout: MarkerLayout, options: RenderOptions):
         self.options = options
         self.camera = options.camera
-        self.model = build_scene_model(base_mjcf, layout, options.camera)
+        # The scene is filmed by an ideal pinhole; the lens (distortion, fisheye) is applied to its image.
+        self.ideal_camera = options.camera.render_camera()
+        self.model = build_scene_model(base_mjcf, layout, self.ideal_camera)
         hide_cover(self.model)
         set_rod_finish(self.model)
         set_ball_colour(self.model, options.ball_colour)
         set_lighting(self.model, options.lighting)
         self.data = mujoco.MjData(self.model)
-        self.renderer = mujoco.Renderer(self.model, options.camera.height, options.camera.width)
+        ideal = self.ideal_camera
+        self.renderer = mujoco.Renderer(self.model, ideal.height, ideal.width)
         self.segmenter: Optional[mujoco.Renderer] = None
         if options.visibility:
-            self.segmenter = mujoco.Renderer(self.model, options.camera.height, options.camera.width)
+            self.segmenter = mujoco.Renderer(self.model, ideal.height, ideal.width)
             self.segmenter.enable_segmentation_rendering()
-        self.distortion = DistortionMap(options.camera) if any(options.camera.distortion) else None
+        lens = options.camera.fisheye or any(options.camera.distortion)
+        self.distortion = DistortionMap(options.camera) if lens else None
         ball = self.model.joint("ball")
         self.ball_qpos = slice(ball.qposadr[0], ball.qposadr[0] + 3)
         self.ball_geom = self.model.geom("ball").id
@@ -107,10 +123,12 @@ class SceneRenderer:
         seg = self.segmenter.render()
         seen = np.count_nonzero((seg[..., 0] == self.ball_geom) & (seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM)))
         centre = self.data.qpos[self.ball_qpos].copy()
+        # Measured in the ideal render: the share of the disc in view does not depend on the lens (the
+        # black corners beyond a fisheye render's reach aside).
         depth = float(self.camera.depth(centre)[0])
         if depth <= self.ball_radius:
             return 0.0
-        focal = self.camera.camera_matrix()[0, 0]
+        focal = self.ideal_camera.camera_matrix()[0, 0]
         expected = math.pi * (focal * self.ball_radius / depth) ** 2
         return float(min(1.0, seen / expected))
 

@@ -30,6 +30,14 @@ Examples:
   render_video out/roll.mp4 --scenario rolls --duration 20 --params-file tilted.yaml
   render_video out/play.mp4 --camera oblique --fps 60 --ball-color yellow --blur 4 --distortion -0.2,0.05
   render_video out/replay.mp4 --bag recorded_bag --camera overhead
+  render_video out/clip.mp4 --camera fisheye --ball-color yellow --blur 4   (1080p, 25 fps, fisheye)
+  render_video out/fish.mp4 --fps 60 --fovy 80 --fisheye 0.05,-0.02,0.01,-0.005
+
+A lens is applied to an ideal pinhole render by remapping. For --fisheye (OpenCV's cv2.fisheye
+equidistant model, r = f theta_d; --fovy is then the field of its r = f theta part) that render has the
+same focal length and is made larger, up to 1.5 times the output per axis; rays beyond it (the corners
+of a very wide lens) are black, like a real fisheye's vignette. OUT.camera.yaml's `intrinsics:` block
+(with `model: fisheye`) is what track_video --intrinsics and tracker_node take.
 """
 
 
@@ -77,7 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
     cam.add_argument("--height", type=int)
     cam.add_argument("--fps", type=float)
     cam.add_argument("--fovy", type=float, help="vertical field of view, degrees")
-    cam.add_argument("--distortion", type=parse_floats, help="OpenCV k1,k2[,p1,p2,k3] radial/tangential lens distortion")
+    lens = cam.add_mutually_exclusive_group()
+    lens.add_argument("--distortion", type=parse_floats, help="OpenCV k1,k2[,p1,p2,k3] radial/tangential lens distortion")
+    lens.add_argument("--fisheye", type=parse_floats, metavar="K1,K2,K3,K4",
+                      help="a fisheye lens (cv2.fisheye) with these coefficients (0,0,0,0: pure equidistant)")
     cam.add_argument("--markers", default=str(DEFAULT_MARKERS_FILE), help="tag layout to place (default: the shipped one)")
     look = p.add_argument_group("realism")
     look.add_argument("--ball-color", type=parse_colour, default=BALL_COLOURS["white"],
@@ -114,6 +125,12 @@ def render_video(args: argparse.Namespace) -> int:
         raise VisionError(f"{existing[0]} exists (use --overwrite to replace it)")
     camera = load_camera(args.camera).with_(width=args.width, height=args.height, fps=args.fps, fovy=args.fovy,
                                             distortion=args.distortion)
+    if args.fisheye is not None:
+        if len(args.fisheye) != 4:
+            raise VisionError(f"--fisheye takes 4 coefficients k1,k2,k3,k4, not {len(args.fisheye)}")
+        camera = camera.with_(model="fisheye", distortion=args.fisheye)
+    elif args.distortion is not None and camera.fisheye:
+        raise VisionError("--distortion is for a pinhole lens; this camera is a fisheye (use --fisheye k1,k2,k3,k4)")
     if camera.width % 2 or camera.height % 2:
         raise VisionError("width and height must be even (mp4v)")
     for name in ("duration", "exposure", "lighting"):
@@ -154,7 +171,7 @@ def render_video(args: argparse.Namespace) -> int:
             write_joints(outputs[4], truths)
     k = camera.camera_matrix()
     camera_tree = {key: (list(v) if isinstance(v, tuple) else v) for key, v in camera.__dict__.items()}
-    camera_tree["intrinsics"] = {"image_width": camera.width, "image_height": camera.height,
+    camera_tree["intrinsics"] = {"model": camera.model, "image_width": camera.width, "image_height": camera.height,
                                  "camera_matrix": k.round(6).tolist(),
                                  "dist_coeffs": [float(v) for v in camera.dist_coeffs()]}
     outputs[2].write_text(yaml.safe_dump(camera_tree, sort_keys=False))

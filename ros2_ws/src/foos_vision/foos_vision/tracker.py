@@ -133,8 +133,10 @@ class BallTracker:
             return
         if mapping.residual_m > MAX_TAG_RESIDUAL:
             self.stats.rejected_fits += 1
+            # A lens that bends straight lines (a fisheye above all) does this too when it is not undistorted.
+            lens_hint = "" if self.config.intrinsics is not None else ", or the lens needs --intrinsics"
             self.last_fit_error = (f"the tags seen are {mapping.residual_m * 1000:.0f} mm (RMS) away from where the "
-                                   f"markers file puts them: the file does not describe this table")
+                                   f"markers file puts them: the file does not describe this table{lens_hint}")
             return
         self.stats.tag_fits += 1
         self.last_fit_error = None
