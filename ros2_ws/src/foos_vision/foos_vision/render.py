@@ -1,7 +1,8 @@
 """The synthetic camera: renders a simulated (or recorded) rollout to an mp4 plus its ground truth.
 
 Frame k is exposed around t_k = k / fps; its ground truth is the ball centre at t_k. With motion blur,
-`subframes` renders spread over `exposure` of the frame interval, centred on t_k, are averaged.
+`subframes` renders spread over `exposure` of the frame interval, centred on t_k, are averaged, and the
+ball's visible share is that at t_k times the share of the sub-frames it is in sight in (not picked up).
 """
 from __future__ import annotations
 
@@ -167,6 +168,7 @@ def render_frames(renderer: SceneRenderer, state_at: StateAt, n_frames: int) -> 
         subs = frame_times(k, fps, o.subframes, o.exposure)
         images: list[np.ndarray] = []
         truth: Optional[FrameTruth] = None
+        in_sight = 0  # sub-frames with the ball in sight (not picked up)
         for t in sorted(subs + [t_k]) if o.subframes > 1 else [t_k]:
             qpos, velocity, hidden = state_at(max(t, 0.0))
             if t == t_k and truth is None:
@@ -177,7 +179,13 @@ def render_frames(renderer: SceneRenderer, state_at: StateAt, n_frames: int) -> 
                                    renderer.visible_fraction(qpos, hidden), qpos[renderer.rod_qpos].copy())
                 if o.subframes > 1:
                     continue
+            in_sight += not hidden
             images.append(renderer.render_rgb(qpos, hidden))
+        if o.subframes > 1 and truth.visible > 0:
+            # The frame is the mean of its exposure: a ball put down or picked up during it is in sight
+            # for part of it and leaves a ghost of that share of its contrast, so its visible share is
+            # scaled by it too (occlusion by figures is taken at t_k alone).
+            truth.visible *= in_sight / len(images)
         yield renderer.finish(images), truth
 
 
