@@ -58,7 +58,11 @@ def bounce_windows(measured: Measured, fit_: Fit) -> list[BounceWindow]:
         if before.t[-1] - seg.t[-1] > 0.05 or len(after.t) < 8:
             continue
         duration = np.array([seg.t[-1] - seg.t[0]])
-        p, v = surrogate.integrate_state(fit_.states[i:i + 1, :2], fit_.states[i:i + 1, 2:], fit_.theta[None], duration, DT)
+        slip = fit_.states[i:i + 1, 4:6]
+        if surrogate.slide_duration(slip)[0] >= duration[0]:
+            continue  # still sliding when it reached the wall: MuJoCo is started from a rolling ball
+        p, v = surrogate.integrate_state(fit_.states[i:i + 1, :2], fit_.states[i:i + 1, 2:4], fit_.theta[None], duration, DT,
+                                         slip=slip)
         t0 = seg.t[-1]
         end = min(b.t_contact + AFTER, after.t[-1])
         t_all = np.concatenate([before.t[before.t > t0], after.t[after.t <= end]])

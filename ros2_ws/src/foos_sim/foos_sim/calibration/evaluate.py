@@ -42,7 +42,7 @@ class Predictions:
 def choose_starts(measured: Measured, max_starts: int, seed: int = 0) -> list[Start]:
     starts = []
     for seg in measured.segments:
-        t0 = seg.t[0] + HISTORY
+        t0 = max(seg.t[0], seg.rolls_from) + HISTORY  # a history of rolling only: a start's state is a rolling one
         while t0 <= seg.t[-1]:
             k = int(np.searchsorted(seg.t, t0, side="right"))
             m = (seg.t >= t0 - HISTORY) & (seg.t <= t0)
@@ -65,7 +65,7 @@ def estimate_states(starts: list[Start], thetas: list[np.ndarray]) -> np.ndarray
         sub = SegmentBatch([starts[i].history for i in rows])
         f = fit_states(sub, np.array(theta))
         duration = np.array([starts[i].t0 - starts[i].history.t[0] for i in rows])
-        p, v = surrogate.integrate_state(f.states[:, :2], f.states[:, 2:], np.tile(np.array(theta), (len(rows), 1)), duration, DT)
+        p, v = surrogate.integrate_state(f.states[:, :2], f.states[:, 2:4], np.tile(np.array(theta), (len(rows), 1)), duration, DT)
         out[rows] = np.concatenate([p, v], axis=1)
     del batch
     return out

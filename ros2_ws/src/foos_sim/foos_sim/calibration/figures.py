@@ -17,7 +17,8 @@ def local_kinematics(measured: Measured, window: float = 0.25, stride: int = 6):
     """Position, velocity and acceleration from quadratic fits over windows of the rolling segments."""
     P, V, A = [], [], []
     for seg in measured.segments:
-        t, xy = seg.t, seg.xy
+        rolling = seg.t >= seg.rolls_from  # a slide's friction is not a residual of the rolling model
+        t, xy = seg.t[rolling], seg.xy[rolling]
         k = 0
         while k < len(t):
             m = (t >= t[k]) & (t <= t[k] + window)

@@ -2,7 +2,8 @@
 
 Gauss-Newton (scipy `least_squares`, trust region) over all rolling segments at once. Each segment
 has its own initial state (x, y, vx, vy), estimated jointly with the effect parameters rather than
-from noisy finite differences. The Jacobian is formed in one batched RK4 pass: every segment is
+from noisy finite differences; a segment that starts at a wall bounce also has its initial slip
+(ux, uy), because the ball slides there until friction matches its spin to its velocity. The Jacobian is formed in one batched RK4 pass: every segment is
 integrated once as it is, once per state component nudged, and once per free global parameter
 nudged, all in the same numpy arrays; the state columns are block-sparse.
 """
@@ -19,10 +20,16 @@ from . import surrogate
 from .tracks import Segment
 
 DT = 1.0 / 120.0  # s, RK4 step of the surrogate (0.04 mm off a 1/960 s reference through a 5 cm dent at 3 m/s)
-STATE_STEP = np.array([1e-5, 1e-5, 1e-5, 1e-5])
+STATE_STEP = np.array([1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5])  # x, y, vx, vy, ux, uy
 PARAM_STEP = np.array([1e-6, 1e-6, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-7])
-LOWER = np.array([-0.05, -0.05, 0.0, 0.0, 0.0, -0.34, -0.60, 0.03, -0.01])
-UPPER = np.array([0.05, 0.05, 2.0, 3.0, 2.0, 0.34, 0.60, 0.30, 0.01])
+# Relative change of the squared error (and of the unknowns) that ends a fit: 1e-6 of ~10^4 noise
+# variances is 0.01, far below the 30 that name an effect. Tighter, the slides' slips keep Gauss-Newton
+# creeping to the evaluation limit for nothing (4x the time).
+FIT_TOLERANCE = 1e-6
+SLIP_LIMIT = 4.0  # m/s, each slip component
+MAX_DENT_DEPTH = 0.006  # m: the deepest dent (or highest bump) a table can have; dents worth naming are 1-4 mm
+LOWER = np.array([-0.05, -0.05, 0.0, 0.0, 0.0, -0.34, -0.60, 0.03, -MAX_DENT_DEPTH])
+UPPER = np.array([0.05, 0.05, 2.0, 3.0, 2.0, 0.34, 0.60, 0.30, MAX_DENT_DEPTH])
 
 
 class SegmentBatch:
@@ -46,21 +53,38 @@ class SegmentBatch:
         self.frac = (self.tau - self.idx * DT) / DT
         self.seg_of, self.sample_of = np.nonzero(self.mask)
         self.nres = 2 * len(self.seg_of)
+        # Sliding segments carry two more unknowns, the slip's components, after the 4 n states.
+        self.slides = np.array([s.slide for s in self.segments], dtype=bool)
+        self.slip_column = np.full(n, -1)
+        self.slip_column[self.slides] = 4 * n + 2 * np.arange(int(self.slides.sum()))
+        self.nstate = 4 * n + 2 * int(self.slides.sum())
+
+    def pack(self, states: np.ndarray) -> np.ndarray:
+        """States (n, 6) -> the fit's state unknowns (x, y, vx, vy of each; then the slides' ux, uy)."""
+        return np.concatenate([states[:, :4].ravel(), states[self.slides, 4:6].ravel()])
+
+    def unpack(self, x: np.ndarray) -> np.ndarray:
+        states = np.zeros((self.n, 6))
+        states[:, :4] = x[: 4 * self.n].reshape(self.n, 4)
+        states[self.slides, 4:6] = x[4 * self.n: self.nstate].reshape(-1, 2)
+        return states
 
     def initial_states(self) -> np.ndarray:
-        """(n, 4) states from a quadratic fit to each segment's first 0.3 s."""
-        states = np.zeros((self.n, 4))
+        """(n, 6) states from a quadratic fit to each segment's first 0.3 s; slips from the bounce."""
+        states = np.zeros((self.n, 6))
         for i, s in enumerate(self.segments):
             m = s.t - s.t[0] < 0.3
             tau = s.t[m] - s.t[0]
             A = np.stack([np.ones_like(tau), tau, tau**2], axis=1)
             coef, *_ = np.linalg.lstsq(A, s.xy[m], rcond=None)
-            states[i] = (*coef[0], *coef[1])
+            states[i, :4] = (*coef[0], *coef[1])
+            if s.slide:
+                states[i, 4:6] = s.slip_guess
         return states
 
     def predict(self, states: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """Predicted positions (B, L, 2) for B = n * k rows (states and theta tiled per row)."""
-        grid = surrogate.integrate(states[:, :2], states[:, 2:], theta, self.nsteps, DT)
+        """Predicted positions (B, L, 2) for B = n * k rows (states (B, 6) and theta tiled per row)."""
+        grid = surrogate.integrate(states[:, :2], states[:, 2:4], theta, self.nsteps, DT, slip=states[:, 4:6])
         rows = np.arange(grid.shape[0])[:, None]
         reps = grid.shape[0] // self.n
         idx = np.tile(self.idx, (reps, 1))
@@ -76,18 +100,21 @@ class SegmentBatch:
 class Fit:
     free: tuple[int, ...]  # indices into surrogate.PARAM_NAMES
     theta: np.ndarray  # full 9-vector
-    states: np.ndarray  # (n, 4)
+    states: np.ndarray  # (n, 6): x, y, vx, vy, and the slip ux, uy (zero where the segment rolls from its start)
     rss: float  # m^2
     nres: int
 
 
 def jacobian(batch: SegmentBatch, states: np.ndarray, theta: np.ndarray, free: Sequence[int]):
-    """Residuals and their sparse Jacobian over [states (4 per segment), theta[free]], in one pass."""
+    """Residuals and their sparse Jacobian over [states (4 per segment, 2 more per slide), theta[free]], in one pass."""
     n, m = batch.n, len(free)
     seg, smp = batch.seg_of, batch.sample_of
     rows = np.arange(batch.nres).reshape(-1, 2)
-    blocks_s = [states] + [states + np.eye(4)[j] * STATE_STEP[j] for j in range(4)] + [states] * m
-    blocks_t = [np.tile(theta, (n, 1))] * 5
+    nudges = [np.eye(6)[j] * STATE_STEP[j] for j in range(6)]
+    # A rolling segment's slip stays zero: nudging it would start a slide that is not there.
+    blocks_s = [states] + [states + nudge * (batch.slides[:, None] if j >= 4 else 1.0) for j, nudge in enumerate(nudges)]
+    blocks_s += [states] * m
+    blocks_t = [np.tile(theta, (n, 1))] * 7
     for j in free:
         t = theta.copy()
         t[j] += PARAM_STEP[j]
@@ -95,17 +122,23 @@ def jacobian(batch: SegmentBatch, states: np.ndarray, theta: np.ndarray, free: S
     pred = batch.predict(np.concatenate(blocks_s), np.concatenate(blocks_t))
     base = pred[:n][seg, smp]
     data, ri, ci = [], [], []
-    for j in range(4):
+    sliding = batch.slides[seg]
+    for j in range(6):
         d = (pred[(1 + j) * n:(2 + j) * n][seg, smp] - base) / STATE_STEP[j]
-        data.append(d.ravel())
-        ri.append(rows.ravel())
-        ci.append(np.repeat(4 * seg + j, 2))
+        if j < 4:
+            data.append(d.ravel())
+            ri.append(rows.ravel())
+            ci.append(np.repeat(4 * seg + j, 2))
+        else:
+            data.append(d[sliding].ravel())
+            ri.append(rows[sliding].ravel())
+            ci.append(np.repeat(batch.slip_column[seg[sliding]] + j - 4, 2))
     for k, j in enumerate(free):
-        d = (pred[(5 + k) * n:(6 + k) * n][seg, smp] - base) / PARAM_STEP[j]
+        d = (pred[(7 + k) * n:(8 + k) * n][seg, smp] - base) / PARAM_STEP[j]
         data.append(d.ravel())
         ri.append(rows.ravel())
-        ci.append(np.full(batch.nres, 4 * n + k))
-    J = sparse.csr_matrix((np.concatenate(data), (np.concatenate(ri), np.concatenate(ci))), shape=(batch.nres, 4 * n + m))
+        ci.append(np.full(batch.nres, batch.nstate + k))
+    J = sparse.csr_matrix((np.concatenate(data), (np.concatenate(ri), np.concatenate(ci))), shape=(batch.nres, batch.nstate + m))
     return (base - batch.meas[seg, smp]).ravel(), J
 
 
@@ -113,17 +146,19 @@ def fit(batch: SegmentBatch, free: Sequence[int], theta0: np.ndarray, states0: n
         max_nfev: int = 30) -> Fit:
     """Least squares over the segments' states and the free parameters (the others held)."""
     free = tuple(sorted(free))
-    n, m = batch.n, len(free)
+    n, ns = batch.n, batch.nstate
     states0 = batch.initial_states() if states0 is None else states0
     theta0 = theta0.copy()
-    lo = np.concatenate([np.full(4 * n, -np.inf), LOWER[list(free)]])
-    hi = np.concatenate([np.full(4 * n, np.inf), UPPER[list(free)]])
-    x0 = np.concatenate([states0.ravel(), np.clip(theta0[list(free)], LOWER[list(free)] + 1e-6, UPPER[list(free)] - 1e-6)])
+    # Slides come from bounces under 1.5 m/s, so a slip over SLIP_LIMIT is a misfit being soaked up.
+    state_limit = np.concatenate([np.full(4 * n, np.inf), np.full(ns - 4 * n, SLIP_LIMIT)])
+    lo = np.concatenate([-state_limit, LOWER[list(free)]])
+    hi = np.concatenate([state_limit, UPPER[list(free)]])
+    x0 = np.concatenate([np.clip(batch.pack(states0), -state_limit + 1e-6, state_limit - 1e-6), np.clip(theta0[list(free)], LOWER[list(free)] + 1e-6, UPPER[list(free)] - 1e-6)])
 
     def unpack(x):
         theta = theta0.copy()
-        theta[list(free)] = x[4 * n:]
-        return x[: 4 * n].reshape(n, 4), theta
+        theta[list(free)] = x[ns:]
+        return batch.unpack(x), theta
 
     def fun(x):
         states, theta = unpack(x)
@@ -133,7 +168,7 @@ def fit(batch: SegmentBatch, free: Sequence[int], theta0: np.ndarray, states0: n
         return jacobian(batch, *unpack(x), free)[1]
 
     result = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", tr_solver="lsmr",
-                           x_scale="jac", max_nfev=max_nfev, xtol=1e-10, ftol=1e-10)
+                           x_scale="jac", max_nfev=max_nfev, xtol=FIT_TOLERANCE, ftol=FIT_TOLERANCE)
     states, theta = unpack(result.x)
     return Fit(free, theta, states, float(np.sum(result.fun**2)), batch.nres)
 
@@ -148,7 +183,7 @@ def predicted_drops(batch: SegmentBatch, current: Fit, candidates: dict[str, Seq
     r, J = jacobian(batch, current.states, current.theta, extra)
     JtJ = (J.T @ J).toarray()
     Jtr = J.T @ r
-    ns = 4 * batch.n
+    ns = batch.nstate
     column = {j: ns + k for k, j in enumerate(extra)}
 
     def drop(params) -> float:
@@ -166,7 +201,6 @@ def fit_states(batch: SegmentBatch, theta: np.ndarray, states0: np.ndarray | Non
     return fit(batch, (), theta, states0, max_nfev=20)
 
 
-MAX_DENT_DEPTH = 0.006  # m: the matched filter's depth limit (dents worth naming are 1-4 mm)
 DENT_REACH = 0.04  # m: how far a neighbourhood search may move a dent's centre (and 3 cm its radius)
 
 
@@ -229,7 +263,8 @@ def dent_search(batch: SegmentBatch, base: Fit, half=(0.34, 0.60), around: np.nd
     only its neighbourhood is searched (within 4 cm and 3 cm of radius).
     """
     n = batch.n
-    grid = surrogate.integrate(base.states[:, :2], base.states[:, 2:], np.tile(base.theta, (n, 1)), batch.nsteps, DT)
+    grid = surrogate.integrate(base.states[:, :2], base.states[:, 2:4], np.tile(base.theta, (n, 1)), batch.nsteps, DT,
+                               slip=base.states[:, 4:6])
     stride = 2
     path = grid[:, ::stride]  # (n, K, 2)
     h = DT * stride

@@ -143,7 +143,9 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
         },
         "method": {
             "selection": "forward selection; an effect is named when its held-out error drop (2 alternating folds of segments) exceeds "
-                         "30 noise variances and it is materially large",
+                         "30 noise variances and it is materially large; a dent is judged on the rolls that cross it, each "
+                         "predicted by the others (30), or where too few cross it, on alternate frames (60)",
+            "segments": "rolling segments, and the slide after each wall bounce with its slip fitted per segment",
             "horizons_s": list(HORIZONS),
             "calibrated_predictions": "cross-fitted: each start predicted by the model fitted on the other fold of segments",
         },
