@@ -7,7 +7,8 @@ current model are each fitted on one fold, and only their segments' initial stat
 on the other. The evidence is the drop of that held-out squared error, in units of the detection
 noise variance, summed over both directions. A parameter that only soaks up noise does not predict
 the other fold and earns no evidence. A dent is local: only the few rolls that cross it carry
-evidence, so it is judged on those, each predicted by a dent found without it. Finally each named
+evidence, so it is judged on those, each predicted by a dent found without it (or, where too few
+cross it for that, on alternate frames of them at twice the bar). Finally each named
 effect must still earn its evidence given the others, and a named speed law is swapped for another
 when that predicts the held-out folds better (greedy order confuses them).
 """
