@@ -114,6 +114,11 @@ def main(args=None) -> int:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except RCLError:
+        # Ctrl-C's handler shuts the context down from under a callback that was publishing: that is the
+        # end of the run, not an error. An RCLError while the context is still up is one.
+        if rclpy.ok():
+            raise
     except (PolicyError, ValueError, TypeError) as error:
         print(f"policy_node: {error}".splitlines()[0], file=sys.stderr)
         return 2

@@ -22,6 +22,7 @@ from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -212,6 +213,11 @@ def main(args=None) -> int:
         node.run(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except RCLError:
+        # Ctrl-C's handler shuts the context down from under a callback that was publishing: that is the
+        # end of the run, not an error. An RCLError while the context is still up is one.
+        if rclpy.ok():
+            raise
     except (ParamsError, ValueError, TypeError, InvalidParameterTypeException, InvalidParameterValueException) as error:
         print(f"sim_node: {error}", file=sys.stderr)
         return 2

@@ -21,6 +21,7 @@ import rclpy
 from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 from rclpy.executors import ExternalShutdownException
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, JointState
@@ -134,6 +135,11 @@ def main(args=None) -> None:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except RCLError:
+        # Ctrl-C's handler shuts the context down from under a callback that was publishing: that is the
+        # end of the run, not an error. An RCLError while the context is still up is one.
+        if rclpy.ok():
+            raise
     except (VisionError, ValueError, OSError) as error:
         print(f"tracker_node: error: {error}", file=sys.stderr)
         code = 2
