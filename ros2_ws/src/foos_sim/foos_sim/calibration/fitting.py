@@ -3,7 +3,8 @@
 Gauss-Newton (scipy `least_squares`, trust region) over all rolling segments at once. Each segment
 has its own initial state (x, y, vx, vy), estimated jointly with the effect parameters rather than
 from noisy finite differences; a segment that starts at a wall bounce also has its initial slip
-(ux, uy), because the ball slides there until friction matches its spin to its velocity. The Jacobian is formed in one batched RK4 pass: every segment is
+(ux, uy), because the ball slides there until friction matches its spin to its velocity. The
+Jacobian is formed in one batched RK4 pass: every segment is
 integrated once as it is, once per state component nudged, and once per free global parameter
 nudged, all in the same numpy arrays; the state columns are block-sparse.
 """
