@@ -94,10 +94,9 @@ class _Slide:
     """
 
     def __init__(self, slip: np.ndarray, mu: float):
-        size = np.sqrt(np.einsum("ij,ij->i", slip, slip))
-        self.pull = -mu * G * slip / np.maximum(size, 1e-12)[:, None]
-        self.pull[size == 0.0] = 0.0
         self.end = slide_duration(slip, mu)  # s after the start when the ball rolls
+        size = self.end * (SLIP_DECAY * mu * G)  # |slip|; a zero slip gives a zero pull
+        self.pull = -mu * G * slip / np.maximum(size, 1e-12)[:, None]
 
     def kick(self, elapsed: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(dp, dv) per ball for steps of length h starting `elapsed` seconds after the start."""
