@@ -51,6 +51,7 @@ class Case:
     lighting: float = 1.0
     fisheye: bool = False  # the camera config is a fisheye: tracked with its intrinsics, and (+calib row) with
     # the intrinsics calibrate_camera --fisheye finds on checkerboards drawn through the same lens
+    hands: bool = False  # a player's hand picks the ball up (render_video --hands); the tracker is not told
 
 
 CASES = (
@@ -63,6 +64,9 @@ CASES = (
     # The real clip, as near as the renderer comes: 1080p, 25 fps, fisheye, yellow ball, the blur a
     # 25 fps shutter gives (half the frame interval, 4 sub-frames). No hands: the renderer has none.
     Case("overhead-1920x1080-25-yellow-fisheye", "fisheye", 1920, 1080, 25, "yellow", blur=4, fisheye=True),
+    # A skin-coloured hand and forearm reach in, cover the ball while it is picked up, and leave: orange is the
+    # ball colour nearest skin. (Last in the list, so the other cases keep their seeds.)
+    Case("overhead-640-60-orange-hands", "overhead", 640, 480, 60, "orange", hands=True),
 )
 CALIBRATION_VIEWS = 16  # checkerboard views for the +calib row (9x6 inner corners, 30 mm squares)
 
@@ -76,6 +80,8 @@ def render_case(case: Case, out: Path, duration: float, seed: int, reuse: bool =
                "--visibility", "--overwrite", "--quiet"]
     if case.distortion:
         command += ["--distortion=" + ",".join(str(v) for v in case.distortion)]
+    if case.hands:
+        command += ["--hands"]
     if reuse and video.exists() and Path(f"{out / case.name}.truth.csv").exists() \
             and Path(f"{out / case.name}.joints.csv").exists():
         return video

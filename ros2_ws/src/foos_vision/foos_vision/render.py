@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from .camera import CameraConfig
+from .hands import AWAY_Z, HAND_BODY, HandPose
 from .markers import MarkerLayout
 from .scene import BALL_COLOURS, CAMERA_NAME, build_scene_model, hide_cover, set_rod_finish, set_ball_colour, set_lighting
 
@@ -31,6 +32,7 @@ class RenderOptions:
     noise: float = 1.5  # sensor noise, std in 8-bit levels
     lighting: float = 1.0  # scale of the scene lights
     visibility: bool = False  # also measure the visible fraction of the ball (a segmentation render per frame)
+    hands: bool = False  # the scene has a player's hand (foos_vision.hands), posed per frame by render_frames' hand_at
     seed: int = 0
 
 
@@ -79,7 +81,7 @@ class SceneRenderer:
         self.camera = options.camera
         # The scene is filmed by an ideal pinhole; the lens (distortion, fisheye) is applied to its image.
         self.ideal_camera = options.camera.render_camera()
-        self.model = build_scene_model(base_mjcf, layout, self.ideal_camera)
+        self.model = build_scene_model(base_mjcf, layout, self.ideal_camera, options.hands)
         hide_cover(self.model)
         set_rod_finish(self.model)
         set_ball_colour(self.model, options.ball_colour)
@@ -101,25 +103,29 @@ class SceneRenderer:
 
         self.rod_qpos = np.array([self.model.joint(n).qposadr[0] for n in JOINT_NAMES])
         self.rng = np.random.default_rng(options.seed)
+        self.hand_mocap = int(self.model.body(HAND_BODY).mocapid[0]) if options.hands else None
 
-    def _pose(self, qpos: np.ndarray, hidden: bool) -> None:
+    def _pose(self, qpos: np.ndarray, hidden: bool, hand: Optional[HandPose] = None) -> None:
         self.data.qpos[:] = qpos
         if hidden:
             self.data.qpos[self.ball_qpos] = (0.0, 0.0, HIDDEN_Z)
+        if self.hand_mocap is not None:
+            self.data.mocap_pos[self.hand_mocap] = hand.position if hand is not None else (0.0, 0.0, AWAY_Z)
+            self.data.mocap_quat[self.hand_mocap] = hand.quat if hand is not None else (1.0, 0.0, 0.0, 0.0)
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)  # camera and light poses are not part of kinematics
 
-    def render_rgb(self, qpos: np.ndarray, hidden: bool = False) -> np.ndarray:
-        self._pose(qpos, hidden)
+    def render_rgb(self, qpos: np.ndarray, hidden: bool = False, hand: Optional[HandPose] = None) -> np.ndarray:
+        self._pose(qpos, hidden, hand)
         self.renderer.update_scene(self.data, CAMERA_NAME)
         return self.renderer.render()
 
-    def visible_fraction(self, qpos: np.ndarray, hidden: bool = False) -> float:
+    def visible_fraction(self, qpos: np.ndarray, hidden: bool = False, hand: Optional[HandPose] = None) -> float:
         if self.segmenter is None:
             return math.nan
         if hidden:
             return 0.0
-        self._pose(qpos, False)
+        self._pose(qpos, False, hand)
         self.segmenter.update_scene(self.data, CAMERA_NAME)
         seg = self.segmenter.render()
         seen = np.count_nonzero((seg[..., 0] == self.ball_geom) & (seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM)))
@@ -150,6 +156,8 @@ class SceneRenderer:
 
 StateAt = Callable[[float], tuple[np.ndarray, np.ndarray, bool]]
 """Advance a rollout to time t (never backwards) and return (qpos, ball velocity, ball hidden)."""
+HandAt = Callable[[float, np.ndarray], Optional[HandPose]]
+"""The hand's pose at time t, given the ball centre (called right after StateAt for the same t); None: away."""
 
 
 def frame_times(k: int, fps: float, subframes: int, exposure: float) -> list[float]:
@@ -159,8 +167,10 @@ def frame_times(k: int, fps: float, subframes: int, exposure: float) -> list[flo
     return [t + ((j + 0.5) / subframes - 0.5) * exposure / fps for j in range(subframes)]
 
 
-def render_frames(renderer: SceneRenderer, state_at: StateAt, n_frames: int) -> Iterator[tuple[np.ndarray, FrameTruth]]:
-    """Yields (BGR frame, its truth) for frames 0..n_frames-1."""
+def render_frames(renderer: SceneRenderer, state_at: StateAt, n_frames: int,
+                  hand_at: Optional[HandAt] = None) -> Iterator[tuple[np.ndarray, FrameTruth]]:
+    """Yields (BGR frame, its truth) for frames 0..n_frames-1. hand_at: where the player's hand is (a renderer
+    built with hands)."""
     o = renderer.options
     fps = renderer.camera.fps
     for k in range(n_frames):
@@ -171,16 +181,17 @@ def render_frames(renderer: SceneRenderer, state_at: StateAt, n_frames: int) -> 
         in_sight = 0  # sub-frames with the ball in sight (not picked up)
         for t in sorted(subs + [t_k]) if o.subframes > 1 else [t_k]:
             qpos, velocity, hidden = state_at(max(t, 0.0))
+            hand = hand_at(max(t, 0.0), qpos[renderer.ball_qpos]) if hand_at is not None else None
             if t == t_k and truth is None:
                 position = qpos[renderer.ball_qpos].copy()
                 if hidden:
                     position[:] = math.nan
                 truth = FrameTruth(t_k, position, velocity.copy() if not hidden else np.full(3, math.nan),
-                                   renderer.visible_fraction(qpos, hidden), qpos[renderer.rod_qpos].copy())
+                                   renderer.visible_fraction(qpos, hidden, hand), qpos[renderer.rod_qpos].copy())
                 if o.subframes > 1:
                     continue
             in_sight += not hidden
-            images.append(renderer.render_rgb(qpos, hidden))
+            images.append(renderer.render_rgb(qpos, hidden, hand))
         if o.subframes > 1 and truth.visible > 0:
             # The frame is the mean of its exposure: a ball put down or picked up during it is in sight
             # for part of it and leaves a ghost of that share of its contrast, so its visible share is

@@ -31,6 +31,7 @@ Examples:
   render_video out/play.mp4 --camera oblique --fps 60 --ball-color yellow --blur 4 --distortion -0.2,0.05
   render_video out/replay.mp4 --bag recorded_bag --camera overhead
   render_video out/clip.mp4 --camera fisheye --ball-color yellow --blur 4   (1080p, 25 fps, fisheye)
+  render_video out/hands.mp4 --ball-color orange --hide-every 1 --hide-for 0.3 --hands   (a hand picks it up)
   render_video out/fish.mp4 --fps 60 --fovy 80 --fisheye 0.05,-0.02,0.01,-0.005
 
 A lens is applied to an ideal pinhole render by remapping. For --fisheye (OpenCV's cv2.fisheye
@@ -78,6 +79,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="take the ball out of sight about every this many seconds, for --hide-for s (default never)")
     src.add_argument("--hide-for", type=float, default=0.4)
     src.add_argument("--no-ball", action="store_true", help="the ball is never in sight (for false-detection tests)")
+    src.add_argument("--hands", action="store_true",
+                     help="a player's hand and forearm (skin tone) reaches in from the nearest long side, covers the "
+                          "ball while it is picked up (--hide-every) and goes back out; needs --hide-every")
     src.add_argument("--seed", type=int, default=0)
     cam = p.add_argument_group("camera")
     cam.add_argument("--camera", default="overhead", help="overhead, oblique, or a camera YAML (default overhead)")
@@ -111,6 +115,7 @@ def render_video(args: argparse.Namespace) -> int:
     from foos_sim.simulation import TableSimulation
     from foos_sim.table_params import load_params
 
+    from .hands import HandScript
     from .render import RenderOptions, SceneRenderer, render_frames, write_joints, write_truth
     from .scenarios import BagRollout, SimRollout
 
@@ -136,6 +141,9 @@ def render_video(args: argparse.Namespace) -> int:
     for name in ("duration", "exposure", "lighting"):
         if not (getattr(args, name) > 0 and math.isfinite(getattr(args, name))):
             raise VisionError(f"--{name} must be a positive number")
+    if args.hands and (args.bag or args.hide_every <= 0 or args.no_ball):
+        raise VisionError("--hands picks the ball up: it needs a simulated rollout with --hide-every > 0 (no --bag, "
+                          "no --no-ball)")
     if args.blur < 1 or args.noise < 0 or args.hide_every < 0 or args.hide_for <= 0:
         raise VisionError("--blur >= 1, --noise >= 0, --hide-every >= 0 and --hide-for > 0 are required")
     layout = load_markers(args.markers)
@@ -150,7 +158,9 @@ def render_video(args: argparse.Namespace) -> int:
         duration = args.duration
     n_frames = int(math.floor(duration * camera.fps)) + 1
     options = RenderOptions(camera=camera, ball_colour=args.ball_color, subframes=args.blur, exposure=args.exposure,
-                            noise=args.noise, lighting=args.lighting, visibility=args.visibility, seed=args.seed)
+                            noise=args.noise, lighting=args.lighting, visibility=args.visibility, seed=args.seed,
+                            hands=args.hands)
+    hand_at = HandScript(rollout).pose if args.hands else None
     renderer = SceneRenderer(build_mjcf(params=params), layout, options)
     out.parent.mkdir(parents=True, exist_ok=True)
     writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), camera.fps, (camera.width, camera.height))
@@ -158,7 +168,7 @@ def render_video(args: argparse.Namespace) -> int:
         raise VisionError(f"{out}: OpenCV cannot write an mp4v video here")
     truths = []
     try:
-        for frame, truth in tqdm(render_frames(renderer, rollout.state_at, n_frames), total=n_frames,
+        for frame, truth in tqdm(render_frames(renderer, rollout.state_at, n_frames, hand_at), total=n_frames,
                                  desc="render_video", unit="frame", disable=args.quiet):
             writer.write(frame)
             truths.append(truth)

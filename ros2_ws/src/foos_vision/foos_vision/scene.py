@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 
 from .camera import CameraConfig
+from .hands import add_hand
 from .markers import MarkerLayout
 
 CAMERA_NAME = "vision_cam"
@@ -43,8 +44,9 @@ def _png(image: np.ndarray) -> bytes:
     return data.tobytes()
 
 
-def build_scene_xml(base_mjcf: str, layout: MarkerLayout, camera: CameraConfig) -> tuple[str, dict[str, bytes]]:
-    """The extended MJCF text and its in-memory assets (tag textures)."""
+def build_scene_xml(base_mjcf: str, layout: MarkerLayout, camera: CameraConfig,
+                    hands: bool = False) -> tuple[str, dict[str, bytes]]:
+    """The extended MJCF text and its in-memory assets (tag textures); hands: a player's hand (foos_vision.hands)."""
     root = ET.fromstring(base_mjcf)
     visual = root.find("visual")
     glob = visual.find("global")
@@ -72,14 +74,16 @@ def build_scene_xml(base_mjcf: str, layout: MarkerLayout, camera: CameraConfig) 
         ET.SubElement(world, "geom", name=f"vision_plate{tag_id}", type="box",
                       size=_fmt(edge / 2 + 0.015, edge / 2 + 0.015, (z + 0.75) / 2),
                       pos=_fmt(x, y, (z - 0.75) / 2 - 1e-4), material="vision_frame", contype="0", conaffinity="0")
+    if hands:
+        add_hand(world, asset)
     axes = camera.axes()
     ET.SubElement(world, "camera", name=CAMERA_NAME, pos=_fmt(*camera.position),
                   xyaxes=_fmt(*axes[0], *axes[1]), fovy=_fmt(camera.fovy))
     return ET.tostring(root, encoding="unicode"), assets
 
 
-def build_scene_model(base_mjcf: str, layout: MarkerLayout, camera: CameraConfig) -> mujoco.MjModel:
-    xml, assets = build_scene_xml(base_mjcf, layout, camera)
+def build_scene_model(base_mjcf: str, layout: MarkerLayout, camera: CameraConfig, hands: bool = False) -> mujoco.MjModel:
+    xml, assets = build_scene_xml(base_mjcf, layout, camera, hands)
     return mujoco.MjModel.from_xml_string(xml, assets)
 
 
