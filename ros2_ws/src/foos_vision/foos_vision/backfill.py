@@ -16,7 +16,7 @@ from typing import Optional
 import numpy as np
 
 from .markers import BALL_CENTRE_HEIGHT
-from .tracker import MAX_SPILL, MIN_PARTIAL_FILL, WEAK_TRACK_LIMIT, BallTracker, Detection
+from .tracker import MAX_SPILL, MIN_PARTIAL_FILL, BallTracker, Detection, weak_too_long
 from .velocity import ConstantVelocityKalman
 
 SEED_DETECTIONS = 3  # detections of a new track that give the backward search its velocity
@@ -95,7 +95,7 @@ class OfflineTracker:
 
     def _search_frames_back(self, start: int, kalman: ConstantVelocityKalman) -> None:
         tr = self.tracker
-        weak_since = None
+        weak_since = None  # (t, index) of the latest frame of the current run of partial blobs
         for index, t, frame, joints in reversed(self._frames):
             if index >= start:
                 continue
@@ -115,8 +115,8 @@ class OfflineTracker:
                 break
             if not (tr._solid(candidate) or tr._confident(candidate)):
                 # Parts of a ball alone, for no longer than the forward tracker allows them.
-                weak_since = t if weak_since is None else weak_since
-                if weak_since - t > WEAK_TRACK_LIMIT:
+                weak_since = (t, index) if weak_since is None else weak_since
+                if weak_too_long(weak_since[0] - t, weak_since[1] - index, tr.figures_masked):
                     break
             else:
                 weak_since = None

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -17,7 +18,16 @@ from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 from .velocity import ConstantVelocityKalman, KalmanState
 
 BALL_RADIUS = 0.0175
-WEAK_TRACK_LIMIT = 0.15  # s: longest a track may live on partly hidden blobs alone
+# Longest a track may live on partly hidden blobs alone: WEAK_TRACK_LIMIT seconds or WEAK_TRACK_FRAMES frames,
+# whichever is longer. What tells a ball under a rod from a figure of its colour is the number of frames in
+# which the part moves as the ball would; at 25 fps 0.15 s is under 4 frames, less than a ball takes to come
+# out from under a rod.
+WEAK_TRACK_LIMIT, WEAK_TRACK_FRAMES = 0.15, 8
+# With the figure mask no figure is left in the searched region, and the two rules that guard against figures of
+# the ball's colour are relaxed: a track may live on partial blobs this long (s), and a run of partial blobs at
+# rest (a ball resting half under a rod) starts a track (see PARTIAL_RUN).
+MASKED_WEAK_TRACK_LIMIT = 2.0
+MASKED_STILL_RUN = True
 MAX_GATE = 0.12  # m: the farthest a track may jump between two frames
 RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
 BAND_SEEDS_NEAR = False
@@ -32,6 +42,10 @@ PARTIAL_MIN_SCORE, PARTIAL_NEAR, PARTIAL_MIN_RATIO = 0.1, 0.6, 0.28
 ACQUIRE_WINDOW = 0.1  # s: two sightings this close in time confirm a new track (25 fps, or a live feed dropping frames)
 ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical
 CONFIDENT_RUN = 3
+# A new track from partial blobs alone: this many frames running of a partly hidden ball (a ball coming out from
+# under a rod while no track runs) whose centres lie on one straight, steady path (within PARTIAL_RUN_FIT m RMS)
+# that moves at least half a ball radius (a figure's foot at rest beside a rod looks like a part at rest). 0: off.
+PARTIAL_RUN, PARTIAL_RUN_FIT = 4, 0.003
 HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.45, 0.5  # field search at half resolution: blobs worth a full-resolution look
 ELSEWHERE_EVERY = 3  # frames between searches of the whole field for a whole ball while the track is weak
 HEALTHY_FILL, HEALTHY_ROUNDNESS = 0.75, 0.8  # or a single frame this filled and round  # ball-like frames in a row that make a track on partial blobs healthy again
@@ -40,6 +54,11 @@ FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it cou
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
 # pockets behind the mouths are roofed, so a camera above never sees a ball there, only the roof.
 FIELD_HALF_X, FIELD_HALF_Y, GOAL_HALF_X, GOAL_DEPTH = 0.34, 0.60, 0.10, 0.025
+
+
+def weak_too_long(seconds: float, frames: int, masked: bool = False) -> bool:
+    """A track has lived on partial blobs alone for too long (both limits passed)."""
+    return seconds > (MASKED_WEAK_TRACK_LIMIT if masked else WEAK_TRACK_LIMIT) and frames > WEAK_TRACK_FRAMES
 
 
 @dataclass
@@ -109,14 +128,18 @@ class BallTracker:
         self._last_t: Optional[float] = None
         self._fixtures: dict[tuple[int, int], int] = {}
         self._weak_since: Optional[float] = None
+        self._weak_since_frame = 0
         self._confident_run = 0
         self._misses = 0  # frames since the last detection
         self._weak_frames = 0
         self._pending: Optional[tuple[float, float, float]] = None  # (t, u, v) of an unconfirmed new track
+        self._partial_history: deque = deque(maxlen=max(1, PARTIAL_RUN))  # (t, [found tuples]) of field searches
+        self._partials_now: list = []
         self._radius_grid = np.ones((1, 1))
         self._search_scale = 1.0
         self._region_small: Optional[np.ndarray] = None
         self._field_lab: Optional[np.ndarray] = None
+        self.figures_masked = False  # this frame's figures are out of the searched region
 
     # --- tags -------------------------------------------------------------------------------------
     def _refit(self, bgr: np.ndarray) -> None:
@@ -174,6 +197,7 @@ class BallTracker:
             x0, y0, x1, y1 = self._roi
             self._region_small = cv2.resize(region[y0:y1, x0:x1], None, fx=0.5, fy=0.5, interpolation=cv2.INTER_NEAREST)
         self._active_region, self._active_region_small = self._region, self._region_small
+        self.figures_masked = False
         if self.figures is not None:
             k = self.config.intrinsics.camera_matrix if self.config.intrinsics is not None else None
             projection = projection_from_mapping(self.mapping, (width, height), k, self.config.fovy_hint)
@@ -182,7 +206,8 @@ class BallTracker:
     def set_figures(self, joints: Optional[np.ndarray]) -> None:
         """Search this frame's field without the figures at these joint positions (16, JOINT_NAMES order);
         None: the whole field, as without joint states."""
-        if joints is None or self._masker is None:
+        self.figures_masked = joints is not None and self._masker is not None
+        if not self.figures_masked:
             self._active_region, self._active_region_small = self._region, self._region_small
             return
         figures = self._masker.mask(np.asarray(joints, float))
@@ -303,14 +328,22 @@ class BallTracker:
                 # Only part of a ball: good for a while, but a track made of parts alone ends after
                 # WEAK_TRACK_LIMIT: it may be a figure of the ball's colour, next to where the ball was
                 # picked up.
-                self._weak_since = t if self._weak_since is None else self._weak_since
-                if t - self._weak_since <= WEAK_TRACK_LIMIT:
+                if self._weak_since is None:
+                    self._weak_since, self._weak_since_frame = t, self.stats.frames
+                if not weak_too_long(t - self._weak_since, self.stats.frames - self._weak_since_frame, self.figures_masked):
                     return found
                 return None, None, None
+        self._partials_now = []
         found = self._best_on_field(bgr)
+        self._partial_history.append((t, self._partials_now))
         if found[0] is None:
             self._pending = None
-            return found
+            run = self._partial_run()
+            if run[0] is not None:
+                self._partial_history.clear()
+                self._weak_since = None
+                self._confident_run = 0
+            return run
         # A new track needs a ball-like blob in two frames running, close together: the outline of a
         # figure of a similar colour passes for a ball in a single frame now and then, a ball in view
         # does so frame after frame.
@@ -355,6 +388,9 @@ class BallTracker:
         candidates = self._search_field(bgr)
         if self._search_scale == 1.0:
             good = [c for c in candidates if self._starts_track(c) and not self._fixture(c)]
+            if not good:
+                self._partials_now = [(c, self._field_lab, self._roi) for c in candidates
+                                      if self._partial_ball(c) and not self._fixture(c, count=False)]
             return (max(good, key=lambda c: c.score), self._field_lab, self._roi) if good else (None, None, None)
         # Found at half resolution, where a ball of a few pixels looks less round and smaller than it is: the
         # blobs that nearly pass are measured again on the full-resolution pixels around them, and judged there.
@@ -364,6 +400,43 @@ class BallTracker:
             radius = self._radius_at_pixel(c.u, c.v)
             found = self._search_window(bgr, np.array([c.u, c.v]), 2 * radius + 3, 2 * radius + 3)
             if found[0] is not None and self._starts_track(found[0]):
+                return found
+            if found[0] is not None and self._partial_ball(found[0]):
+                self._partials_now.append(found)
+        return None, None, None
+
+    @staticmethod
+    def _partial_ball(c: Candidate) -> bool:
+        """Part of a ball: enough of the disc, filled (not a figure's hollow outline), not merged with anything."""
+        return c.area_ratio >= 0.4 and c.roundness >= 0.5 and c.fill >= MIN_PARTIAL_FILL and c.spill <= MAX_SPILL
+
+    def _partial_run(self):
+        """A new track from PARTIAL_RUN frames running of partial blobs on one steady, moving path (or nothing)."""
+        history = list(self._partial_history)
+        if PARTIAL_RUN < 2 or len(history) < PARTIAL_RUN:
+            return None, None, None
+        history = history[-PARTIAL_RUN:]
+        if any(b[0] - a[0] > ACQUIRE_WINDOW for a, b in zip(history, history[1:])):
+            return None, None, None
+        for found in history[-1][1]:
+            chain = [(history[-1][0], found[0])]
+            for t_prev, previous in reversed(history[:-1]):
+                t_last, last = chain[-1]
+                reach = (self._radius_at_pixel(last.u, last.v) + MAX_GATE * self.mapping.pixels_per_metre(
+                    self.pixel_to_table(last.u, last.v)) * min(1.0, (t_last - t_prev) / 0.04))
+                near = [f[0] for f in previous if math.hypot(f[0].u - last.u, f[0].v - last.v) <= reach]
+                if not near:
+                    break
+                chain.append((t_prev, min(near, key=lambda c: math.hypot(c.u - last.u, c.v - last.v))))
+            if len(chain) < PARTIAL_RUN:
+                continue
+            ts = np.array([t for t, _ in chain])
+            xy = np.array([self.pixel_to_table(c.u, c.v) for _, c in chain])
+            design = np.stack([np.ones_like(ts), ts - ts[0]], axis=1)
+            coef, *_ = np.linalg.lstsq(design, xy, rcond=None)
+            residual = float(np.sqrt(np.mean(np.sum((design @ coef - xy) ** 2, axis=1))))
+            moved = np.linalg.norm(xy[0] - xy[-1]) >= 0.5 * BALL_RADIUS
+            if residual <= PARTIAL_RUN_FIT and (moved or (self.figures_masked and MASKED_STILL_RUN)):
                 return found
         return None, None, None
 
