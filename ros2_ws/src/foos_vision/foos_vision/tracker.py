@@ -23,9 +23,9 @@ BALL_RADIUS = 0.0175
 # which the part moves as the ball would; at 25 fps 0.15 s is under 4 frames, less than a ball takes to come
 # out from under a rod.
 WEAK_TRACK_LIMIT, WEAK_TRACK_FRAMES = 0.15, 8
-# With the figure mask no figure is left in the searched region, and the two rules that guard against figures of
-# the ball's colour are relaxed: a track may live on partial blobs this long (s), and a run of partial blobs at
-# rest (a ball resting half under a rod) starts a track (see PARTIAL_RUN).
+# With the figure mask no figure is left in the searched region, and the rules that guard against figures of the
+# ball's colour are relaxed: a track may live on partial blobs this long (s), and a run of partial blobs starts a
+# track (PARTIAL_RUN), at rest too (a ball resting half under a rod).
 MASKED_WEAK_TRACK_LIMIT = 2.0
 MASKED_STILL_RUN = True
 MAX_GATE = 0.12  # m: the farthest a track may jump between two frames
@@ -42,9 +42,10 @@ PARTIAL_MIN_SCORE, PARTIAL_NEAR, PARTIAL_MIN_RATIO = 0.1, 0.6, 0.28
 ACQUIRE_WINDOW = 0.1  # s: two sightings this close in time confirm a new track (25 fps, or a live feed dropping frames)
 ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical
 CONFIDENT_RUN = 3
-# A new track from partial blobs alone: this many frames running of a partly hidden ball (a ball coming out from
-# under a rod while no track runs) whose centres lie on one straight, steady path (within PARTIAL_RUN_FIT m RMS)
-# that moves at least half a ball radius (a figure's foot at rest beside a rod looks like a part at rest). 0: off.
+# With the figure mask, a new track from partial blobs alone: this many frames running of a partly hidden ball (a
+# ball coming out from under a rod, or resting beside one, while no track runs) whose centres lie on one
+# straight, steady path (within PARTIAL_RUN_FIT m RMS); at rest too when MASKED_STILL_RUN. Never without the mask:
+# a figure of the ball's colour sliding with its rod (or at rest) makes such a run. 0: off.
 PARTIAL_RUN, PARTIAL_RUN_FIT = 4, 0.003
 HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.45, 0.5  # field search at half resolution: blobs worth a full-resolution look
 ELSEWHERE_EVERY = 3  # frames between searches of the whole field for a whole ball while the track is weak
@@ -411,9 +412,10 @@ class BallTracker:
         return c.area_ratio >= 0.4 and c.roundness >= 0.5 and c.fill >= MIN_PARTIAL_FILL and c.spill <= MAX_SPILL
 
     def _partial_run(self):
-        """A new track from PARTIAL_RUN frames running of partial blobs on one steady, moving path (or nothing)."""
+        """A new track from PARTIAL_RUN frames running of partial blobs on one steady path (or nothing); only
+        with the figures masked out: a figure sliding with its rod is a partial blob on a steady path too."""
         history = list(self._partial_history)
-        if PARTIAL_RUN < 2 or len(history) < PARTIAL_RUN:
+        if PARTIAL_RUN < 2 or len(history) < PARTIAL_RUN or not self.figures_masked:
             return None, None, None
         history = history[-PARTIAL_RUN:]
         if any(b[0] - a[0] > ACQUIRE_WINDOW for a, b in zip(history, history[1:])):
@@ -436,7 +438,7 @@ class BallTracker:
             coef, *_ = np.linalg.lstsq(design, xy, rcond=None)
             residual = float(np.sqrt(np.mean(np.sum((design @ coef - xy) ** 2, axis=1))))
             moved = np.linalg.norm(xy[0] - xy[-1]) >= 0.5 * BALL_RADIUS
-            if residual <= PARTIAL_RUN_FIT and (moved or (self.figures_masked and MASKED_STILL_RUN)):
+            if residual <= PARTIAL_RUN_FIT and (moved or MASKED_STILL_RUN):
                 return found
         return None, None, None
 
