@@ -16,6 +16,9 @@ The fisheye case (the issue's real clip as near as the renderer comes: 1080p, 25
 tracked with the lens render_video used, and again (`+calib` row) with the intrinsics that
 `calibrate_camera --fisheye` finds on checkerboard views drawn through that lens (foos_vision.boards).
 
+The hands case (`overhead-640-60-orange-hands`) is picked up by a rendered hand and forearm (render_video
+--hands) instead of vanishing: a skin-coloured blob over the field that the tracker is not told about.
+
 With `--figure-mask both` (the default) every case is tracked twice: as now, and with the figure mask
 (`+mask` rows), fed the rendered rod joint positions (OUT.joints.csv) as track_video's --joint-states
 or tracker_node's /joint_states would be.
@@ -62,7 +65,7 @@ CASES = (
     Case("overhead-640-120-red-lens", "overhead", 640, 480, 120, "red", distortion=(-0.28, 0.09)),
     Case("overhead-640-60-white-blur", "overhead", 640, 480, 60, "white", blur=4),
     # The real clip, as near as the renderer comes: 1080p, 25 fps, fisheye, yellow ball, the blur a
-    # 25 fps shutter gives (half the frame interval, 4 sub-frames). No hands: the renderer has none.
+    # 25 fps shutter gives (half the frame interval, 4 sub-frames). Hands are the next case's.
     Case("overhead-1920x1080-25-yellow-fisheye", "fisheye", 1920, 1080, 25, "yellow", blur=4, fisheye=True),
     # A skin-coloured hand and forearm reach in, cover the ball while it is picked up, and leave: orange is the
     # ball colour nearest skin. (Last in the list, so the other cases keep their seeds.)
