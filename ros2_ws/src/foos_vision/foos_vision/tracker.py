@@ -15,6 +15,7 @@ from .errors import MarkersError
 from .figure_mask import FigureGeometry, FigureMasker, projection_from_mapping
 from .geometry import MAX_TAG_RESIDUAL, Lens, PlaneMapping, TagLocator, fit_mapping
 from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
+from .rod_lines import RodGeometry, camera_centre, on_rod_line, rod_bands, rod_geometry
 from .velocity import ConstantVelocityKalman, KalmanState
 
 BALL_RADIUS = 0.0175
@@ -51,6 +52,9 @@ HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.45, 0.5  # field search at half resolutio
 ELSEWHERE_EVERY = 3  # frames between searches of the whole field for a whole ball while the track is weak
 HEALTHY_FILL, HEALTHY_ROUNDNESS = 0.75, 0.8  # or a single frame this filled and round  # ball-like frames in a row that make a track on partial blobs healthy again
 AUTO_MIN_SHARE = 0.3  # auto colour: share of the frames looked at in which the winner saw one moving ball
+# A blob in a rod's band seen again this close in ball-plane y (m) and at least this far along x (m) is a figure
+# sliding with its rod, for the auto colour vote (rod_lines).
+ROD_LINE_Y_TOL, ROD_LINE_MIN_DX = 0.004, 0.010
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
 # pockets behind the mouths are roofed, so a camera above never sees a ball there, only the roof.
@@ -72,6 +76,7 @@ class TrackerConfig:
     learn_after: int = 0  # > 0: confident detections before the colour box is re-centred on the ball seen (off:
     # on renders re-centring lost the ball's rim pixels and doubled the median error)
     measurement_std: float = 0.0015
+    params_file: Optional[str] = None  # foos_sim table parameters: where the rods are (auto colour); None = nominal
 
 
 @dataclass
@@ -121,6 +126,8 @@ class BallTracker:
         self._roi = (0, 0, 0, 0)
         self._min_radius = 2.0
         self._auto_seen: dict[str, list] = {name: [] for name in BALL_COLOR_NAMES}
+        self._rods: Optional[RodGeometry] = None
+        self._rod_bands: Optional[np.ndarray] = None  # ball-plane y a hanging figure covers, per rod
         self._auto_done = self.config.ball_color != "auto"
         start = "white" if self.config.ball_color == "auto" else self.config.ball_color
         self.detector = BallDetector(colour_model(start))
@@ -184,6 +191,10 @@ class BallTracker:
         pixels = self.lens.distort(self.mapping.to_image(np.array(dense)))
         region = np.zeros((height, width), np.uint8)
         cv2.fillPoly(region, [np.round(pixels).astype(np.int32)], 255)
+        k = self.config.intrinsics.camera_matrix if self.config.intrinsics is not None else None
+        projection = projection_from_mapping(self.mapping, (width, height), k, self.config.fovy_hint)
+        if self._rods is None:
+            self._rods = rod_geometry(self.config.params_file)
         self._region = region
         self._make_radius_grid(width, height)
         ys, xs = np.nonzero(region)
@@ -200,9 +211,8 @@ class BallTracker:
         self._active_region, self._active_region_small = self._region, self._region_small
         self.figures_masked = False
         if self.figures is not None:
-            k = self.config.intrinsics.camera_matrix if self.config.intrinsics is not None else None
-            projection = projection_from_mapping(self.mapping, (width, height), k, self.config.fovy_hint)
             self._masker = FigureMasker(self.figures, projection, self.lens, (width, height))
+        self._rod_bands = rod_bands(self._rods, camera_centre(projection))
 
     def set_figures(self, joints: Optional[np.ndarray]) -> None:
         """Search this frame's field without the figures at these joint positions (16, JOINT_NAMES order);
@@ -528,8 +538,9 @@ class BallTracker:
             candidates, _, _ = detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius,
                                                    self._active_region,
                                                    use_band=False)
-            self._auto_seen[name].append([(c.u, c.v) for c in candidates if self._confident(c)])
-        votes = {name: self._colour_votes(frames) for name, frames in self._auto_seen.items()}
+            self._auto_seen[name].append([(c.u, c.v, *self.pixel_to_table(c.u, c.v))
+                                          for c in candidates if self._confident(c)])
+        votes = {name: self._colour_votes(frames, self._rod_bands) for name, frames in self._auto_seen.items()}
         ranked = sorted(BALL_COLOR_NAMES, key=lambda n: -votes[n])
         best, second = ranked[0], ranked[1]
         if votes[best] > 0:
@@ -544,14 +555,23 @@ class BallTracker:
             self.kalman.reset()
 
     @staticmethod
-    def _colour_votes(frames: list[list[tuple[float, float]]]) -> int:
-        """Frames with exactly one candidate that is not a fixture: a blob found again at the same pixel
-        (2 px) in a frame at least 6 frames away is part of the table or a figure at rest, not a ball."""
+    def _colour_votes(frames: list[list[tuple[float, float, float, float]]], bands: Optional[np.ndarray] = None) -> int:
+        """Frames with exactly one candidate (u, v pixels, x, y on the ball plane) that is neither a fixture nor
+        a figure. A fixture: a blob found again at the same pixel (2 px) in a frame at least 6 frames away
+        (part of the table, or a figure at rest). A figure sliding with its rod: a blob inside a rod's band
+        (rod_lines) found again, 6 or more frames away, on the same line of y (ROD_LINE_Y_TOL) at another x
+        (ROD_LINE_MIN_DX): a figure's ball-plane y stays on its rod's line, a ball's does not."""
         def static(p, own):
             return any(math.hypot(p[0] - q[0], p[1] - q[1]) < 2.0
                        for j, other in enumerate(frames) if abs(j - own) >= 6 for q in other)
 
-        return sum(1 for i, f in enumerate(frames) if len([p for p in f if not static(p, i)]) == 1)
+        def slides_on_rod(p, own):
+            return (bands is not None and on_rod_line(p[3], bands)
+                    and any(abs(p[3] - q[3]) < ROD_LINE_Y_TOL and abs(p[2] - q[2]) >= ROD_LINE_MIN_DX
+                            for j, other in enumerate(frames) if abs(j - own) >= 6 for q in other))
+
+        return sum(1 for i, f in enumerate(frames)
+                   if len([p for p in f if not static(p, i) and not slides_on_rod(p, i)]) == 1)
 
     @property
     def colour(self) -> ColourModel:
@@ -579,7 +599,8 @@ def choose_colour(frames, layout: MarkerLayout, config: TrackerConfig | None = N
     config = config or TrackerConfig()
     tracker = BallTracker(layout, TrackerConfig(ball_color="auto", intrinsics=config.intrinsics,
                                                 tag_interval=config.tag_interval, fovy_hint=config.fovy_hint,
-                                                auto_frames=config.auto_frames), figures)
+                                                auto_frames=config.auto_frames, params_file=config.params_file),
+                          figures)
     for k, frame in enumerate(frames):
         tracker.process(frame, k / fps, joints_at(k / fps) if joints_at is not None else None)
         if tracker._auto_done:
