@@ -98,6 +98,9 @@ class PlaneMapping:
         return math.sqrt(abs(np.linalg.det(jac)))
 
 
+MIN_FOVY_DEG = 10.0  # narrowest plausible vertical field of view, for the focal length a homography gives
+
+
 def _focal_from_homography(plane_to_image: np.ndarray, principal: np.ndarray) -> Optional[float]:
     """Zhang's constraints with square pixels and a known principal point; None when unobservable."""
     shift = np.array([[1, 0, -principal[0]], [0, 1, -principal[1]], [0, 0, 1.0]])
@@ -131,6 +134,11 @@ def camera_matrix_for(plane_to_image: np.ndarray, image_size: tuple[int, int], k
     width, height = image_size
     principal = np.array([width / 2 - 0.5, height / 2 - 0.5])
     f = _focal_from_homography(plane_to_image, principal)
+    # Near straight down the constraints are close to vanishing without falling below the test above, and
+    # the focal length they give can be any size (200 000 px, a camera 690 m up, for the 1.9 m overhead
+    # render): no lens a table is filmed through sees less than MIN_FOVY_DEG, so such a value is no answer.
+    if f is not None and f > (height / 2) / math.tan(math.radians(MIN_FOVY_DEG) / 2):
+        f = None
     if f is None:
         f = (height / 2) / math.tan(math.radians(fovy_hint) / 2)
     return np.array([[f, 0, principal[0]], [0, f, principal[1]], [0, 0, 1.0]])

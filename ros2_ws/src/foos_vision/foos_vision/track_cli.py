@@ -61,7 +61,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="forward pass only, as tracker_node tracks live (no backward search before a track's start)")
     p.add_argument("--joint-states", metavar="BAG",
                    help="bag with /joint_states (the 16 rod joints): mask out the figures (see above)")
-    p.add_argument("--params-file", help="foos_sim table parameter file for the figure geometry (default: nominal)")
+    p.add_argument("--params-file", help="foos_sim table parameter file: the figures for the mask, and where the "
+                                         "rods are for --ball-color auto (default: the regulation table)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -92,7 +93,8 @@ def track_video(args: argparse.Namespace) -> int:
         raise VisionError("--annotate takes an .mp4 or .png path")
     layout = load_markers(args.markers)
     intrinsics = load_intrinsics(args.intrinsics) if args.intrinsics else None
-    config = TrackerConfig(ball_color=args.ball_color, intrinsics=intrinsics, tag_interval=args.tag_interval)
+    config = TrackerConfig(ball_color=args.ball_color, intrinsics=intrinsics, tag_interval=args.tag_interval,
+                           params_file=args.params_file)
     figures, joints = None, None
     if args.joint_states:
         from .figure_mask import FigureGeometry, read_joint_track

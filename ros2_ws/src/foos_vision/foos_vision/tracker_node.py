@@ -47,13 +47,14 @@ class TrackerNode(Node):
         self.declare_parameter("intrinsics", "")  # calibrate_camera YAML; '' = no undistortion
         self.declare_parameter("tag_interval", 30)
         self.declare_parameter("figure_mask", True)  # mask the figures posed from /joint_states
-        self.declare_parameter("params_file", "")  # foos_sim table parameters for the figure geometry; '' = nominal
+        self.declare_parameter("params_file", "")  # foos_sim table parameters (figures, rods); '' = nominal
         markers = load_markers(self.get_parameter("markers").value)
         intrinsics_file = self.get_parameter("intrinsics").value
         config = TrackerConfig(
             ball_color=self.get_parameter("ball_color").value,
             intrinsics=load_intrinsics(intrinsics_file) if intrinsics_file else None,
             tag_interval=int(self.get_parameter("tag_interval").value),
+            params_file=self.get_parameter("params_file").value or None,
         )
         figures = None
         self.joint_names = figure_joint_names()
