@@ -8,7 +8,7 @@ import pytest
 
 from drawn_table import FPS, draw_ball, table_frame, write_layout
 from foos_vision.rod_lines import on_rod_line, rod_bands, rod_geometry
-from foos_vision.tracker import BallTracker, TrackerConfig
+from foos_vision.tracker import ROD_LINE_MIN_DX, ROD_LINE_Y_TOL, BallTracker, MovingBallVotes, TrackerConfig
 
 RED_BGR = (30, 30, 200)
 
@@ -83,3 +83,37 @@ def test_rod_bands_hold_a_hanging_figure_seen_with_parallax():
     assert bands[-1, 0] == pytest.approx(0.514 * 0.9825 / 1.0)
     assert bands[3, 0] < -0.075 < bands[3, 1]
     assert on_rod_line(0.56, bands) and not on_rod_line(0.45, bands) and not on_rod_line(0.0, bands)
+
+
+def brute_force_votes(frames, bands):
+    """MovingBallVotes' definition, checked pair by pair over the whole window."""
+    def fixture(p, own):
+        return any(np.hypot(p[0] - q[0], p[1] - q[1]) < 2.0 for j, f in enumerate(frames) if abs(j - own) >= 6 for q in f)
+
+    def figure(p, own):
+        return on_rod_line(p[3], bands) and any(
+            abs(p[3] - q[3]) < ROD_LINE_Y_TOL and abs(p[2] - q[2]) >= ROD_LINE_MIN_DX
+            for j, f in enumerate(frames) if abs(j - own) >= 6 for q in f)
+
+    return sum(1 for i, f in enumerate(frames) if len([p for p in f if not fixture(p, i) and not figure(p, i)]) == 1)
+
+
+@pytest.mark.parametrize("window", [7, 25])
+def test_moving_ball_votes_counted_as_blobs_come_and_leave_the_window_match_the_definition(window):
+    # The counts are kept per blob as frames arrive and leave (a live feed may wait minutes for its ball);
+    # after every frame they must equal the pairwise definition over the window.
+    rng = np.random.default_rng(window)
+    bands = np.array([[-0.05, 0.0], [0.2, 0.23]])
+    votes, frames = MovingBallVotes(bands, window=window), []
+    for _ in range(80):
+        frame = []
+        for _ in range(rng.integers(0, 4)):
+            if rng.random() < 0.4:  # a fixture's pixel, on a rod line somewhere along x
+                frame.append((100.0 + rng.integers(0, 3), 50.0 + rng.integers(0, 3), rng.uniform(-0.3, 0.3),
+                              rng.choice([-0.02, 0.21]) + rng.normal(0.0, 0.002)))
+            else:
+                frame.append((rng.uniform(0, 640), rng.uniform(0, 480), rng.uniform(-0.3, 0.3), rng.uniform(-0.6, 0.6)))
+        frames.append(frame)
+        votes.add(frame)
+        assert votes.frames == len(frames[-window:])
+        assert votes.votes() == brute_force_votes(frames[-window:], bands)

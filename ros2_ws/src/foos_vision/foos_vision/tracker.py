@@ -52,6 +52,9 @@ HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.45, 0.5  # field search at half resolutio
 ELSEWHERE_EVERY = 3  # frames between searches of the whole field for a whole ball while the track is weak
 HEALTHY_FILL, HEALTHY_ROUNDNESS = 0.75, 0.8  # or a single frame this filled and round  # ball-like frames in a row that make a track on partial blobs healthy again
 AUTO_MIN_SHARE = 0.3  # auto colour: share of the frames looked at in which the winner saw one moving ball
+# Auto colour votes over at most this many recent frames: a live feed with no ball in view for minutes must
+# not make every frame compare its blobs with all frames so far (the bench's videos settle within 120).
+AUTO_WINDOW = 300
 # A blob in a rod's band seen again this close in ball-plane y (m) and at least this far along x (m) is a figure
 # sliding with its rod, for the auto colour vote (rod_lines).
 ROD_LINE_Y_TOL, ROD_LINE_MIN_DX = 0.004, 0.010
@@ -125,7 +128,7 @@ class BallTracker:
         self._region: Optional[np.ndarray] = None
         self._roi = (0, 0, 0, 0)
         self._min_radius = 2.0
-        self._auto_seen: dict[str, list] = {name: [] for name in BALL_COLOR_NAMES}
+        self._auto_seen: dict[str, "MovingBallVotes"] = {}  # per colour, made once the rod bands are known
         self._rods: Optional[RodGeometry] = None
         self._rod_bands: Optional[np.ndarray] = None  # ball-plane y a hanging figure covers, per rod
         self._auto_done = self.config.ball_color != "auto"
@@ -538,9 +541,12 @@ class BallTracker:
             candidates, _, _ = detector.candidates(bgr, self._roi, self._radius_at_pixel, self._min_radius,
                                                    self._active_region,
                                                    use_band=False)
-            self._auto_seen[name].append([(c.u, c.v, *self.pixel_to_table(c.u, c.v))
-                                          for c in candidates if self._confident(c)])
-        votes = {name: self._colour_votes(frames, self._rod_bands) for name, frames in self._auto_seen.items()}
+            if name not in self._auto_seen:
+                self._auto_seen[name] = MovingBallVotes()
+            self._auto_seen[name].bands = self._rod_bands  # the latest tag fit's
+            self._auto_seen[name].add([(c.u, c.v, *self.pixel_to_table(c.u, c.v))
+                                       for c in candidates if self._confident(c)])
+        votes = {name: self._auto_seen[name].votes() for name in BALL_COLOR_NAMES}
         ranked = sorted(BALL_COLOR_NAMES, key=lambda n: -votes[n])
         best, second = ranked[0], ranked[1]
         if votes[best] > 0:
@@ -548,30 +554,11 @@ class BallTracker:
         # Settle only on clear evidence: a figure of one colour passes for a ball now and then (a red figure
         # moving with its rod in a fifth of the frames while an orange ball was half hidden), a ball in view
         # does so in most frames.
-        voted = len(self._auto_seen[best])
+        voted = self._auto_seen[best].frames
         if (self.stats.frames_with_mapping >= self.config.auto_frames and votes[best] >= max(3, AUTO_MIN_SHARE * voted)
                 and votes[best] >= 2 * votes[second]):
             self._auto_done = True
             self.kalman.reset()
-
-    @staticmethod
-    def _colour_votes(frames: list[list[tuple[float, float, float, float]]], bands: Optional[np.ndarray] = None) -> int:
-        """Frames with exactly one candidate (u, v pixels, x, y on the ball plane) that is neither a fixture nor
-        a figure. A fixture: a blob found again at the same pixel (2 px) in a frame at least 6 frames away
-        (part of the table, or a figure at rest). A figure sliding with its rod: a blob inside a rod's band
-        (rod_lines) found again, 6 or more frames away, on the same line of y (ROD_LINE_Y_TOL) at another x
-        (ROD_LINE_MIN_DX): a figure's ball-plane y stays on its rod's line, a ball's does not."""
-        def static(p, own):
-            return any(math.hypot(p[0] - q[0], p[1] - q[1]) < 2.0
-                       for j, other in enumerate(frames) if abs(j - own) >= 6 for q in other)
-
-        def slides_on_rod(p, own):
-            return (bands is not None and on_rod_line(p[3], bands)
-                    and any(abs(p[3] - q[3]) < ROD_LINE_Y_TOL and abs(p[2] - q[2]) >= ROD_LINE_MIN_DX
-                            for j, other in enumerate(frames) if abs(j - own) >= 6 for q in other))
-
-        return sum(1 for i, f in enumerate(frames)
-                   if len([p for p in f if not static(p, i) and not slides_on_rod(p, i)]) == 1)
 
     @property
     def colour(self) -> ColourModel:
@@ -589,6 +576,68 @@ class BallTracker:
         if len(self._learn_pixels) >= self.config.learn_after:
             self.detector = BallDetector(learn_colour(self.detector.model, np.concatenate(self._learn_pixels)))
             self._learned = True
+
+
+class MovingBallVotes:
+    """Auto colour's count for one colour: frames with exactly one blob (u, v pixels, x, y on the ball plane)
+    that is neither a fixture nor a figure, over the last AUTO_WINDOW frames.
+
+    A fixture: a blob found again at the same pixel (2 px) in a frame at least 6 frames away (part of the
+    table, or a figure at rest). A figure sliding with its rod: a blob inside a rod's band (rod_lines) found
+    again, 6 or more frames away, on the same line of y (ROD_LINE_Y_TOL) at another x (ROD_LINE_MIN_DX): a
+    figure's ball-plane y stays on its rod's line, a ball's does not. Each blob keeps a count of the blobs in
+    the window that make it a fixture or a figure, so a frame costs one comparison with the window, not a
+    comparison of every pair (a live feed may wait long for its ball).
+    """
+
+    APART = 6  # frames
+
+    def __init__(self, bands: Optional[np.ndarray] = None, window: int = AUTO_WINDOW):
+        self.bands, self.window = bands, window
+        self.frames = 0  # frames in the window
+        self._first = 0  # index of the window's first frame
+        self._frame = np.zeros(0, dtype=int)
+        self._blob = np.zeros((0, 4))
+        self._on_line = np.zeros(0, dtype=bool)
+        self._static = np.zeros(0, dtype=int)  # blobs in the window at this blob's pixel
+        self._along = np.zeros(0, dtype=int)  # blobs in the window on this blob's line of y, elsewhere in x
+
+    def _matches(self, blobs: np.ndarray, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(len(blobs), N) fixture and rod-line matches of `blobs` (in frames `frame`) with the window's blobs."""
+        apart = np.abs(frame[:, None] - self._frame[None, :]) >= self.APART
+        same_pixel = np.hypot(blobs[:, None, 0] - self._blob[None, :, 0], blobs[:, None, 1] - self._blob[None, :, 1]) < 2.0
+        along = ((np.abs(blobs[:, None, 3] - self._blob[None, :, 3]) < ROD_LINE_Y_TOL)
+                 & (np.abs(blobs[:, None, 2] - self._blob[None, :, 2]) >= ROD_LINE_MIN_DX))
+        return apart & same_pixel, apart & along
+
+    def add(self, blobs: list[tuple[float, float, float, float]]) -> None:
+        """The next frame's blobs."""
+        index = self._first + self.frames
+        if self.frames == self.window:
+            leaving = self._frame == self._first
+            static, along = self._matches(self._blob[leaving], self._frame[leaving])
+            keep = ~leaving
+            self._static = (self._static - static.sum(0))[keep]
+            self._along = (self._along - along.sum(0))[keep]
+            self._frame, self._blob, self._on_line = self._frame[keep], self._blob[keep], self._on_line[keep]
+            self._first += 1
+        else:
+            self.frames += 1
+        new = np.array(blobs, dtype=float).reshape(-1, 4)
+        frame = np.full(len(new), index)
+        static, along = self._matches(new, frame)
+        self._static = np.concatenate([self._static + static.sum(0), static.sum(1)])
+        self._along = np.concatenate([self._along + along.sum(0), along.sum(1)])
+        on_line = (np.array([on_rod_line(y, self.bands) for y in new[:, 3]], dtype=bool) if self.bands is not None
+                   else np.zeros(len(new), dtype=bool))
+        self._frame = np.concatenate([self._frame, frame])
+        self._blob = np.concatenate([self._blob, new])
+        self._on_line = np.concatenate([self._on_line, on_line])
+
+    def votes(self) -> int:
+        moving = (self._static == 0) & ~(self._on_line & (self._along > 0))
+        per_frame = np.bincount(self._frame[moving] - self._first, minlength=self.frames)
+        return int(np.sum(per_frame == 1))
 
 
 def choose_colour(frames, layout: MarkerLayout, config: TrackerConfig | None = None, fps: float = 30.0,
