@@ -197,6 +197,27 @@ def predicted_drops(batch: SegmentBatch, current: Fit, candidates: dict[str, Seq
     return {name: drop(params) - base for name, params in candidates.items()}
 
 
+def linearised_rss(batch: SegmentBatch, current: Fit, theta0: np.ndarray, free: Sequence[int]) -> float:
+    """Squared error (m^2) of the model with parameters `free` refitted, by one Gauss-Newton step from `current`.
+
+    Parameters `current` frees and `free` does not go back to theta0; the states and `free` are refitted.
+    A screen: the effects' forces are linear in their parameters, so one step is close to the full refit.
+    """
+    columns = sorted(set(current.free) | set(free))
+    r, J = jacobian(batch, current.states, current.theta, columns)
+    J = J.tocsc()
+    ns = batch.nstate
+    dropped = [k for k, j in enumerate(columns) if j not in free]
+    if dropped:
+        r = r + J[:, [ns + k for k in dropped]] @ (theta0[[columns[k] for k in dropped]] - current.theta[[columns[k] for k in dropped]])
+    keep = list(range(ns)) + [ns + k for k, j in enumerate(columns) if j in free]
+    Jk = J[:, keep]
+    A = (Jk.T @ Jk).toarray()
+    b = Jk.T @ r
+    A += 1e-12 * np.trace(A) / len(A) * np.eye(len(A))
+    return float(r @ r - b @ np.linalg.solve(A, b))
+
+
 def fit_states(batch: SegmentBatch, theta: np.ndarray, states0: np.ndarray | None = None) -> Fit:
     """Only the segments' initial states, with every parameter held (held-out evaluation)."""
     return fit(batch, (), theta, states0, max_nfev=20)
