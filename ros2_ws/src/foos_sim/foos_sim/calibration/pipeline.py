@@ -163,8 +163,9 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
     if floor is not None:
         report["floor"] = floor
     report["runtime_s"] = round(time.monotonic() - started, 1)
-    # CPU seconds of all this process's threads: on a machine shared with other work the wall time
-    # grows, this does not, and with nothing else running the wall time is at most this.
+    # CPU seconds of all this process's threads: with nothing else running the wall time is at most
+    # this. It is no load-free figure: on this machine's two shared cores it grew with the others'
+    # load too (one trial 39 -> 67 s).
     report["cpu_s"] = round(time.process_time() - cpu_started, 1)
     (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_plain))
     (out_dir / "report.md").write_text(markdown(report, nominal_rolling, nominal_e))
