@@ -180,42 +180,37 @@ def predicted_drops(batch: SegmentBatch, current: Fit, candidates: dict[str, Seq
     A score test: residuals and Jacobian at the current fit once, then a small normal-equations
     solve per candidate. Used to rank candidates before the one full fit that counts.
     """
-    extra = sorted({j for c in candidates.values() for j in c} | set(current.free))
-    r, J = jacobian(batch, current.states, current.theta, extra)
+    sets = [current.free] + [tuple(set(params) | set(current.free)) for params in candidates.values()]
+    base, *extended = linearised_rss(batch, current, current.theta, sets)
+    return {name: base - rss for name, rss in zip(candidates, extended)}
+
+
+def linearised_rss(batch: SegmentBatch, current: Fit, theta0: np.ndarray, free_sets: Sequence[Sequence[int]]) -> list[float]:
+    """Squared error (m^2) of the model with each set of parameters refitted, by one Gauss-Newton step from `current`.
+
+    For each set: the parameters `current` frees and the set does not go back to theta0, and the
+    states and the set's parameters are refitted. One Jacobian at `current` serves every set. A screen:
+    the effects' forces are linear in their parameters, so one step is close to the full refit.
+    """
+    columns = sorted(set(current.free).union(*map(set, free_sets)))
+    r, J = jacobian(batch, current.states, current.theta, columns)
     JtJ = (J.T @ J).toarray()
     Jtr = J.T @ r
+    rr = float(r @ r)
     ns = batch.nstate
-    column = {j: ns + k for k, j in enumerate(extra)}
-
-    def drop(params) -> float:
-        cols = list(range(ns)) + [column[j] for j in sorted(set(params) | set(current.free))]
-        A = JtJ[np.ix_(cols, cols)] + 1e-12 * np.eye(len(cols))
-        b = Jtr[cols]
-        return float(b @ np.linalg.solve(A, b))
-
-    base = drop(())
-    return {name: drop(params) - base for name, params in candidates.items()}
-
-
-def linearised_rss(batch: SegmentBatch, current: Fit, theta0: np.ndarray, free: Sequence[int]) -> float:
-    """Squared error (m^2) of the model with parameters `free` refitted, by one Gauss-Newton step from `current`.
-
-    Parameters `current` frees and `free` does not go back to theta0; the states and `free` are refitted.
-    A screen: the effects' forces are linear in their parameters, so one step is close to the full refit.
-    """
-    columns = sorted(set(current.free) | set(free))
-    r, J = jacobian(batch, current.states, current.theta, columns)
-    J = J.tocsc()
-    ns = batch.nstate
-    dropped = [k for k, j in enumerate(columns) if j not in free]
-    if dropped:
-        r = r + J[:, [ns + k for k in dropped]] @ (theta0[[columns[k] for k in dropped]] - current.theta[[columns[k] for k in dropped]])
-    keep = list(range(ns)) + [ns + k for k, j in enumerate(columns) if j in free]
-    Jk = J[:, keep]
-    A = (Jk.T @ Jk).toarray()
-    b = Jk.T @ r
-    A += 1e-12 * np.trace(A) / len(A) * np.eye(len(A))
-    return float(r @ r - b @ np.linalg.solve(A, b))
+    column = {j: ns + k for k, j in enumerate(columns)}
+    out = []
+    for free in free_sets:
+        kept = list(range(ns)) + [column[j] for j in sorted(set(free))]
+        # The residuals once the dropped parameters are back at theta0: r + J_d delta, in normal-equation terms.
+        dropped = [j for j in current.free if j not in free]
+        d = [column[j] for j in dropped]
+        delta = theta0[dropped] - current.theta[dropped]
+        b = Jtr[kept] + JtJ[np.ix_(kept, d)] @ delta
+        rss = rr + 2 * delta @ Jtr[d] + delta @ JtJ[np.ix_(d, d)] @ delta
+        A = JtJ[np.ix_(kept, kept)] + 1e-12 * np.eye(len(kept))
+        out.append(float(rss - b @ np.linalg.solve(A, b)))
+    return out
 
 
 def fit_states(batch: SegmentBatch, theta: np.ndarray, states0: np.ndarray | None = None) -> Fit:

@@ -290,20 +290,26 @@ def _revise(batch, held, chosen, current, base_rss, base_thetas, theta0, sigma2,
         dof = max(1, full.nres - batch.nstate - len(full.free))
         return max(sigma2, full.rss / dof)
 
-    def clearly_worse(names, scale2) -> tuple[bool, float]:
-        """Whether `names`, refitted, would leave REVISION_SCREEN noise variances more than the current set."""
-        worse = (linearised_rss(batch, current, theta0, free_indices(names)) - current.rss) / scale2
-        return worse > REVISION_SCREEN, worse
+    def worse_than_current(sets, scale2) -> dict[tuple, float]:
+        """Noise variances each set of names, refitted, would leave over the current set (one linearised step)."""
+        if not sets:
+            return {}
+        rss = linearised_rss(batch, current, theta0, [free_indices(names) for names in sets])
+        return {tuple(names): (r - current.rss) / scale2 for names, r in zip(sets, rss)}
 
     for _ in range(4):  # each pass either changes the set or ends
         changed = False
         scale2 = scale2_of(current)
-        for name in [c for c in chosen if c in SMOOTH]:  # a dent was judged on the rolls over it
-            rest = [c for c in chosen if c != name]
+        named = [c for c in chosen if c in SMOOTH]  # a dent was judged on the rolls over it
+        rests = {name: [c for c in chosen if c != name] for name in named}
+        swaps = {(name, other): [other if c == name else c for c in chosen]
+                 for name in named for other in SMOOTH if other not in chosen}
+        worse = worse_than_current(list(rests.values()) + list(swaps.values()), scale2)
+        for name in named:
+            rest = rests[name]
             progress(f"checking {name} given {' + '.join(rest) or 'nothing else'}")
-            screened, worse = clearly_worse(rest, scale2)
-            if screened:
-                evidence.setdefault(name, {})["in_sample_error_drop_given_the_others_linearised"] = round(float(worse), 1)
+            if worse[tuple(rest)] > REVISION_SCREEN:
+                evidence.setdefault(name, {})["in_sample_error_drop_given_the_others_linearised"] = round(float(worse[tuple(rest)]), 1)
                 continue
             full, rss, thetas = refit(rest) if rest else (fit_states(batch, theta0), *held.score((), theta0))
             worth = (sum(rss) - sum(base_rss)) / scale2
@@ -315,10 +321,10 @@ def _revise(batch, held, chosen, current, base_rss, base_thetas, theta0, sigma2,
                 break
         if changed:
             continue
-        for name in [c for c in chosen if c in SMOOTH]:
+        for name in named:
             for other in [c for c in SMOOTH if c not in chosen]:
-                names = [other if c == name else c for c in chosen]
-                if clearly_worse(names, scale2)[0]:
+                names = swaps[(name, other)]
+                if worse[tuple(names)] > REVISION_SCREEN:
                     continue
                 progress(f"trying {other} in place of {name}")
                 full, rss, thetas = refit(names)

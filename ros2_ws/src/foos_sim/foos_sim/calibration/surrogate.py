@@ -45,19 +45,16 @@ def nominal_theta(rolling_deceleration: float = 0.15) -> np.ndarray:
 
 def acceleration(p: np.ndarray, v: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """Acceleration (n, 2) of rolling balls at positions p (n, 2), velocities v (n, 2); theta (n, 9)."""
-    speed = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
-    # Below 5 mm/s the rolling resistance fades out, so a ball comes to rest instead of reversing.
-    a = ROLL * G * theta[:, 0:2] - theta[:, 2:3] * v / np.maximum(speed, 0.005)
-    a -= (theta[:, 3:4] + theta[:, 4:5] * speed) * v
-    depth = theta[:, 8]
-    if np.any(depth != 0.0):
-        delta = p - theta[:, 5:7]
-        dist = np.sqrt(np.einsum("ij,ij->i", delta, delta))
-        radius = theta[:, 7]
-        inside = dist < radius
-        slope = np.where(inside, 0.5 * depth * np.pi / radius * np.sin(np.pi * np.minimum(dist, radius) / radius), 0.0)
-        a -= (ROLL * G * slope / np.maximum(dist, 1e-9))[:, None] * delta
-    return a
+    a = _Coefficients(theta)(_complex(p), _complex(v))
+    return np.stack([a.real, a.imag], axis=1)
+
+
+def _complex(xy: np.ndarray) -> np.ndarray:
+    return xy[:, 0] + 1j * xy[:, 1]
+
+
+def _real(z: np.ndarray) -> np.ndarray:
+    return np.stack([z.real, z.imag], axis=-1)
 
 
 class _Coefficients:
@@ -74,6 +71,7 @@ class _Coefficients:
 
     def __call__(self, p, v):
         speed = np.abs(v)
+        # Below 5 mm/s the rolling resistance fades out, so a ball comes to rest instead of reversing.
         a = self.gravity - (self.d / np.maximum(speed, 0.005) + self.k + self.c * speed) * v
         if self.dent:
             delta = p - self.centre
@@ -94,21 +92,34 @@ class _Slide:
     def __init__(self, slip: np.ndarray, mu: float):
         self.end = slide_duration(slip, mu)  # s after the start when the ball rolls
         size = self.end * (SLIP_DECAY * mu * G)  # |slip|; a zero slip gives a zero pull
-        self.pull = -mu * G * slip / np.maximum(size, 1e-12)[:, None]
+        self.pull = _complex(-mu * G * slip / np.maximum(size, 1e-12)[:, None])
 
-    def sliding_time(self, elapsed, h) -> np.ndarray:
-        """Seconds of a step of length h, starting `elapsed` seconds after the start, that each ball slides."""
-        return np.clip(self.end - elapsed, 0.0, h)
-
-    def kick(self, elapsed: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(dp, dv) per ball for steps of length h starting `elapsed` seconds after the start."""
-        s = self.sliding_time(elapsed, h)
-        return self.pull * (s * (h - s / 2))[:, None], self.pull * s[:, None]
+    def kick(self, elapsed, h) -> tuple[np.ndarray, np.ndarray]:
+        """(dp, dv) per ball, complex, for steps of length h starting `elapsed` seconds after the start."""
+        s = np.clip(self.end - elapsed, 0.0, h)
+        return self.pull * (s * (h - s / 2)), self.pull * s
 
 
 def slide_duration(slip: np.ndarray, mu: float = SLIDING_FRICTION) -> np.ndarray:
     """Seconds (n,) each slip (n, 2) lasts before the ball rolls."""
     return np.sqrt(np.einsum("ij,ij->i", slip, slip)) / (SLIP_DECAY * mu * G)
+
+
+def _rk4_step(acc: _Coefficients, p: np.ndarray, v: np.ndarray, h) -> tuple[np.ndarray, np.ndarray]:
+    """One RK4 step of length h (a scalar, or one per ball) for complex positions and velocities."""
+    h2 = 0.5 * h
+    a1 = acc(p, v)
+    v2 = v + h2 * a1
+    a2 = acc(p + h2 * v, v2)
+    v3 = v + h2 * a2
+    a3 = acc(p + h2 * v2, v3)
+    v4 = v + h * a3
+    a4 = acc(p + h * v3, v4)
+    return p + h / 6.0 * (v + 2 * (v2 + v3) + v4), v + h / 6.0 * (a1 + 2 * (a2 + a3) + a4)
+
+
+def _slide_of(slip: np.ndarray | None, mu: float) -> _Slide | None:
+    return _Slide(slip, mu) if slip is not None and np.any(slip != 0.0) else None
 
 
 def integrate(p0: np.ndarray, v0: np.ndarray, theta: np.ndarray, nsteps: int, dt: float,
@@ -117,55 +128,35 @@ def integrate(p0: np.ndarray, v0: np.ndarray, theta: np.ndarray, nsteps: int, dt
 
     `slip` (n, 2): the contact point's velocity at the start (zero for a ball that rolls).
     """
-    n = p0.shape[0]
-    out = np.empty((n, nsteps + 1), dtype=complex)
+    out = np.empty((p0.shape[0], nsteps + 1), dtype=complex)
     acc = _Coefficients(theta)
-    slide = _Slide(slip, mu) if slip is not None and np.any(slip != 0.0) else None
-    p, v = p0[:, 0] + 1j * p0[:, 1], v0[:, 0] + 1j * v0[:, 1]
+    slide = _slide_of(slip, mu)
+    p, v = _complex(p0), _complex(v0)
     out[:, 0] = p
-    h2, h6 = 0.5 * dt, dt / 6.0
     last_slide_step = int(np.ceil(np.max(slide.end) / dt)) if slide is not None else -1
-    if slide is not None:
-        pull = slide.pull[:, 0] + 1j * slide.pull[:, 1]
     for k in range(nsteps):
-        a1 = acc(p, v)
-        v2 = v + h2 * a1
-        a2 = acc(p + h2 * v, v2)
-        v3 = v + h2 * a2
-        a3 = acc(p + h2 * v2, v3)
-        v4 = v + dt * a3
-        a4 = acc(p + dt * v3, v4)
-        p = p + h6 * (v + 2 * (v2 + v3) + v4)
-        v = v + h6 * (a1 + 2 * (a2 + a3) + a4)
+        p, v = _rk4_step(acc, p, v, dt)
         if k < last_slide_step:
-            s = slide.sliding_time(k * dt, dt)
-            p = p + pull * (s * (dt - s / 2))
-            v = v + pull * s
+            dp, dv = slide.kick(k * dt, dt)
+            p, v = p + dp, v + dv
         out[:, k + 1] = p
-    return out.view(float).reshape(n, nsteps + 1, 2)
+    return _real(out)
 
 
 def integrate_state(p0: np.ndarray, v0: np.ndarray, theta: np.ndarray, duration: np.ndarray, dt: float,
                     slip: np.ndarray | None = None, mu: float = SLIDING_FRICTION):
-    """Position and velocity of each ball after its own duration (n,), same RK4 (last step shortened)."""
-    p, v = p0.copy(), v0.copy()
-    slide = _Slide(slip, mu) if slip is not None and np.any(slip != 0.0) else None
+    """Position and velocity (n, 2) of each ball after its own duration (n,), same RK4 (last step shortened)."""
+    acc = _Coefficients(theta)
+    slide = _slide_of(slip, mu)
+    p, v = _complex(p0), _complex(v0)
     remaining = np.asarray(duration, dtype=float).copy()
     elapsed = np.zeros_like(remaining)
     while np.any(remaining > 1e-12):
-        h = np.minimum(remaining, dt)[:, None]
-        a1 = acceleration(p, v, theta)
-        v2 = v + 0.5 * h * a1
-        a2 = acceleration(p + 0.5 * h * v, v2, theta)
-        v3 = v + 0.5 * h * a2
-        a3 = acceleration(p + 0.5 * h * v2, v3, theta)
-        v4 = v + h * a3
-        a4 = acceleration(p + h * v3, v4, theta)
-        p = p + h / 6.0 * (v + 2 * v2 + 2 * v3 + v4)
-        v = v + h / 6.0 * (a1 + 2 * a2 + 2 * a3 + a4)
+        h = np.minimum(remaining, dt)
+        p, v = _rk4_step(acc, p, v, h)
         if slide is not None:
-            dp, dv = slide.kick(elapsed, h[:, 0])
+            dp, dv = slide.kick(elapsed, h)
             p, v = p + dp, v + dv
-        remaining = remaining - h[:, 0]
-        elapsed = elapsed + h[:, 0]
-    return p, v
+        remaining = remaining - h
+        elapsed = elapsed + h
+    return _real(p), _real(v)
