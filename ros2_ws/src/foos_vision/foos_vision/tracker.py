@@ -28,7 +28,6 @@ WEAK_TRACK_LIMIT, WEAK_TRACK_FRAMES = 0.15, 8
 # ball's colour are relaxed: a track may live on partial blobs this long (s), and a run of partial blobs starts a
 # track (PARTIAL_RUN), at rest too (a ball resting half under a rod).
 MASKED_WEAK_TRACK_LIMIT = 2.0
-MASKED_STILL_RUN = True
 MAX_GATE = 0.12  # m: the farthest a track may jump between two frames
 RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
 BAND_SEEDS_NEAR = False
@@ -45,7 +44,7 @@ ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0
 CONFIDENT_RUN = 3
 # With the figure mask, a new track from partial blobs alone: this many frames running of a partly hidden ball (a
 # ball coming out from under a rod, or resting beside one, while no track runs) whose centres lie on one
-# straight, steady path (within PARTIAL_RUN_FIT m RMS); at rest too when MASKED_STILL_RUN. Never without the mask:
+# straight, steady path (within PARTIAL_RUN_FIT m RMS), moving or at rest. Never without the mask:
 # a figure of the ball's colour sliding with its rod (or at rest) makes such a run. 0: off.
 PARTIAL_RUN, PARTIAL_RUN_FIT = 4, 0.003
 HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.45, 0.5  # field search at half resolution: blobs worth a full-resolution look
@@ -450,8 +449,7 @@ class BallTracker:
             design = np.stack([np.ones_like(ts), ts - ts[0]], axis=1)
             coef, *_ = np.linalg.lstsq(design, xy, rcond=None)
             residual = float(np.sqrt(np.mean(np.sum((design @ coef - xy) ** 2, axis=1))))
-            moved = np.linalg.norm(xy[0] - xy[-1]) >= 0.5 * BALL_RADIUS
-            if residual <= PARTIAL_RUN_FIT and (moved or MASKED_STILL_RUN):
+            if residual <= PARTIAL_RUN_FIT:
                 return found
         return None, None, None
 
