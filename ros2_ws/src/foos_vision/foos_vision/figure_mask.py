@@ -131,9 +131,17 @@ class FigureMasker:
         self.width, self.height = image_size
         self.margin_px = margin_px
 
-    def footprints(self, joints: np.ndarray) -> list[np.ndarray]:
-        """One convex polygon (pixels, distorted image) per figure box, of its part above the ball's top."""
-        points, kept = clip_above(self.geometry.corners(joints), BALL_TOP)
+    def footprints(self, joints: np.ndarray, below: bool = False) -> list[np.ndarray]:
+        """One convex polygon (pixels, distorted image) per figure box, of its part above the ball's top (below:
+        of its part below, a foot at the ball's height)."""
+        corners = self.geometry.corners(joints)
+        if below:
+            # The part below a height is the part above it with z turned over.
+            flip = np.array([1.0, 1.0, -1.0])
+            points, kept = clip_above(corners * flip, -BALL_TOP)
+            points = points * flip
+        else:
+            points, kept = clip_above(corners, BALL_TOP)
         points = points[kept]
         g, n = points.shape[:2]
         homogeneous = np.concatenate([points.reshape(-1, 3), np.ones((g * n, 1))], axis=1) @ self.projection.T
@@ -143,11 +151,11 @@ class FigureMasker:
         in_front = np.all(depth.reshape(g, n) > 0, axis=1)  # a box behind the camera is not in the image
         return [cv2.convexHull(p) for p, ok in zip(pixels, in_front) if ok]
 
-    def mask(self, joints: np.ndarray) -> np.ndarray:
-        """uint8 image, 255 under a figure (plus the margin)."""
+    def mask(self, joints: np.ndarray, below: bool = False) -> np.ndarray:
+        """uint8 image, 255 under a figure (plus the margin); below: under the figures' parts below the ball's top."""
         mask = np.zeros((self.height, self.width), np.uint8)
         scale = float(1 << _SUBPIXEL_BITS)
-        for hull in self.footprints(joints):
+        for hull in self.footprints(joints, below):
             cv2.fillConvexPoly(mask, np.round(hull * scale).astype(np.int32), 255, cv2.LINE_8, _SUBPIXEL_BITS)
         if self.margin_px > 0:
             size = 2 * self.margin_px + 1

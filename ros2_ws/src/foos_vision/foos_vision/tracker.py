@@ -15,7 +15,7 @@ from .errors import MarkersError
 from .figure_mask import FigureGeometry, FigureMasker, projection_from_mapping
 from .geometry import MAX_TAG_RESIDUAL, Lens, PlaneMapping, TagLocator, fit_mapping
 from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
-from .rod_lines import RodGeometry, camera_centre, on_rod_line, rod_bands, rod_geometry
+from .rod_lines import RodGeometry, camera_centre, fit_rod_shifts, on_rod_line, rod_bands, rod_geometry, rod_mask
 from .velocity import ConstantVelocityKalman, KalmanState
 
 BALL_RADIUS = 0.0175
@@ -57,6 +57,7 @@ AUTO_WINDOW = 300
 # A blob in a rod's band seen again this close in ball-plane y (m) and at least this far along x (m) is a figure
 # sliding with its rod, for the auto colour vote (rod_lines).
 ROD_LINE_Y_TOL, ROD_LINE_MIN_DX = 0.004, 0.010
+EDGE_SAMPLES = 40  # whole balls in view whose colour masks give the mask's edge radius (BallDetector.edge_scale)
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
 # pockets behind the mouths are roofed, so a camera above never sees a ball there, only the roof.
@@ -113,6 +114,17 @@ class BallTracker:
         self._masker: Optional[FigureMasker] = None
         self._active_region: Optional[np.ndarray] = None  # the field minus this frame's figures
         self._active_region_small: Optional[np.ndarray] = None
+        # With the figure mask: the steel rods' pixels, which are in front of the ball wherever they overlap it. A
+        # ball partly behind a rod is measured as a partial view of a whole ball (BallDetector's hidden).
+        self._hidden: Optional[np.ndarray] = None
+        self._rod_pixels: Optional[np.ndarray] = None
+        # The rods less a pixel all round, kept out of the search: the rods' image is placed within about a pixel,
+        # and a white ball's lit edge beside a rod must not be cut off.
+        self._rod_core: Optional[np.ndarray] = None
+        self._projection: Optional[np.ndarray] = None
+        self._joints: Optional[np.ndarray] = None  # this frame's, with the figure mask
+        self._felt_ab: Optional[tuple[float, float]] = None
+        self._feet: Optional[np.ndarray] = None  # footprints of the figures' parts below the ball's top, made on demand
         self.config = config or TrackerConfig()
         if self.config.ball_color != "auto" and self.config.ball_color not in BALL_COLOR_NAMES:
             raise ValueError(f"unknown ball colour `{self.config.ball_color}` (auto, {', '.join(BALL_COLOR_NAMES)})")
@@ -134,6 +146,7 @@ class BallTracker:
         start = "white" if self.config.ball_color == "auto" else self.config.ball_color
         self.detector = BallDetector(colour_model(start))
         self._learn_pixels: list[np.ndarray] = []
+        self._whole_ratios: deque = deque(maxlen=EDGE_SAMPLES)  # area ratios of whole balls in plain view
         self._learned = False
         self._last_t: Optional[float] = None
         self._fixtures: dict[tuple[int, int], int] = {}
@@ -178,6 +191,14 @@ class BallTracker:
         if self.mapping is None or not np.allclose(mapping.image_to_table, self.mapping.image_to_table, atol=1e-9):
             self.mapping = mapping
             self._update_region(bgr.shape[1], bgr.shape[0])
+            if self._masker is not None:
+                shifts = fit_rod_shifts(bgr, self._region, self._rods, self._projection, self.lens.distort)
+                self._rod_pixels = rod_mask(self._rods, self._projection, self.lens.distort, (bgr.shape[1], bgr.shape[0]),
+                                            shifts)
+                self._rod_core = cv2.erode(self._rod_pixels, np.ones((3, 3), np.uint8))
+            # The felt is most of the field: its median colour (Lab a, b) tells bare felt from everything else.
+            field = cv2.cvtColor(np.ascontiguousarray(bgr[::4, ::4]), cv2.COLOR_BGR2Lab)[self._region[::4, ::4] > 0]
+            self._felt_ab = (float(np.median(field[:, 1])), float(np.median(field[:, 2])))
 
     def _update_region(self, width: int, height: int) -> None:
         m = BALL_RADIUS
@@ -214,6 +235,8 @@ class BallTracker:
         self.figures_masked = False
         if self.figures is not None:
             self._masker = FigureMasker(self.figures, projection, self.lens, (width, height))
+            self._projection = projection  # the rods are placed by _refit, on this frame's steel
+        self._hidden = None
         self._rod_bands = rod_bands(self._rods, camera_centre(projection))
 
     def set_figures(self, joints: Optional[np.ndarray]) -> None:
@@ -222,9 +245,15 @@ class BallTracker:
         self.figures_masked = joints is not None and self._masker is not None
         if not self.figures_masked:
             self._active_region, self._active_region_small = self._region, self._region_small
+            self._hidden = None
             return
-        figures = self._masker.mask(np.asarray(joints, float))
-        self._active_region = cv2.bitwise_and(self._region, cv2.bitwise_not(figures))
+        # The rods are left in the search without the figure mask: a figure of the ball's colour half behind its
+        # rod would be measured as a whole ball. The figures' footprints are not counted as hiding the ball either:
+        # only their parts above the ball's top are masked, and a foot below shows beside its masked body.
+        self._hidden = self._rod_pixels
+        self._joints, self._feet = np.asarray(joints, float), None
+        figures = self._masker.mask(self._joints)
+        self._active_region = cv2.bitwise_and(self._region, cv2.bitwise_not(cv2.bitwise_or(figures, self._rod_core)))
         if self._search_scale != 1.0:
             x0, y0, x1, y1 = self._roi
             self._active_region_small = cv2.resize(self._active_region[y0:y1, x0:x1], None, fx=0.5, fy=0.5,
@@ -293,6 +322,11 @@ class BallTracker:
             if not self._auto_done:
                 return None  # no colour yet: a guess could be a rod or a hand
         chosen, lab_roi, roi = self._find(bgr, t)
+        if chosen is not None and chosen.hidden == 0 and self._solid(chosen, ACQUIRE_SOLID_RATIO):
+            # How much of a whole ball the colour mask takes (BallDetector.edge_scale), from the balls seen whole.
+            self._whole_ratios.append(chosen.area_ratio)
+            if len(self._whole_ratios) >= EDGE_SAMPLES // 2:
+                self.detector.edge_scale = float(np.clip(math.sqrt(np.median(self._whole_ratios)), 0.7, 1.0))
         if chosen is None:
             self._misses += 1
             return None
@@ -418,10 +452,21 @@ class BallTracker:
                 self._partials_now.append(found)
         return None, None, None
 
-    @staticmethod
-    def _partial_ball(c: Candidate) -> bool:
+    def _partial_ball(self, c: Candidate) -> bool:
         """Part of a ball: enough of the disc, filled (not a figure's hollow outline), not merged with anything."""
-        return c.area_ratio >= 0.4 and c.roundness >= 0.5 and c.fill >= MIN_PARTIAL_FILL and c.spill <= MAX_SPILL
+        return (c.area_ratio >= 0.4 and c.roundness >= 0.5 and c.fill >= MIN_PARTIAL_FILL and c.spill <= MAX_SPILL
+                and not self._on_a_foot(c))
+
+    def _on_a_foot(self, c: Candidate) -> bool:
+        """With the figure mask, the centre of a blob lies on a figure's part below the ball's top. Only the parts
+        above are masked (a foot beside the ball can be behind it), so a foot of the ball's colour is still in the
+        search: a partial blob centred on one is that foot, or a ball the foot hides the middle of."""
+        if not self.figures_masked or self._joints is None:
+            return False
+        if self._feet is None:
+            self._feet = self._masker.mask(self._joints, below=True)
+        h, w = self._feet.shape
+        return bool(self._feet[min(h - 1, max(0, int(round(c.v)))), min(w - 1, max(0, int(round(c.u))))])
 
     def _partial_run(self):
         """A new track from PARTIAL_RUN frames running of partial blobs on one steady path (or nothing); only
@@ -458,7 +503,8 @@ class BallTracker:
         s = self._search_scale
         if s == 1.0:
             candidates, self._field_lab, _ = self.detector.candidates(bgr, self._roi, self._radius_at_pixel,
-                                                                      self._min_radius, self._active_region, use_band=False)
+                                                                      self._min_radius, self._active_region, use_band=False,
+                                                                      hidden=self._hidden, felt_ab=self._felt_ab)
             return candidates
         x0, y0, x1, y1 = self._roi
         small = cv2.resize(bgr[y0:y1, x0:x1], None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
@@ -483,7 +529,8 @@ class BallTracker:
             return None, None, None
         roi = (x0, y0, x1, y1)
         candidates, lab, _ = self.detector.candidates(bgr, roi, self._radius_at_pixel, self._min_radius, self._active_region,
-                                                      use_band=use_band, band_seeds=band_seeds)
+                                                      use_band=use_band, band_seeds=band_seeds, hidden=self._hidden,
+                                                      felt_ab=self._felt_ab)
         near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate
                 and (c.score > MIN_SCORE or (c.score > PARTIAL_MIN_SCORE and c.area_ratio >= PARTIAL_MIN_RATIO
                                              and math.hypot(c.u - centre[0], c.v - centre[1]) <= partial_reach))]
@@ -517,6 +564,8 @@ class BallTracker:
             # Merged with something of its colour (a ball against a figure, or a figure's bar alone): its centre
             # is pulled toward the figure, so it only carries a track that has not lost the ball, and only
             # where the ball is expected. A coasting track would slide onto the figure.
+            return None, lab, roi
+        if found is not None and not self._solid(found) and self._on_a_foot(found):
             return None, lab, roi
         if found is not None and not self._confident(found):
             # A partly hidden ball is followed only where it is expected; further out, only a whole ball
@@ -572,7 +621,8 @@ class BallTracker:
         if len(pixels):
             self._learn_pixels.append(pixels)
         if len(self._learn_pixels) >= self.config.learn_after:
-            self.detector = BallDetector(learn_colour(self.detector.model, np.concatenate(self._learn_pixels)))
+            self.detector = BallDetector(learn_colour(self.detector.model, np.concatenate(self._learn_pixels)),
+                                         self.detector.edge_scale)
             self._learned = True
 
 
