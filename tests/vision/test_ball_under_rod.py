@@ -14,9 +14,11 @@ import cv2
 import numpy as np
 import pytest
 
+import drawn_table
+from drawn_table import ORANGE_BGR, STEEL_BGR
 from foos_sim.names import JOINT_NAMES
 from foos_vision.figure_mask import FigureGeometry, projection_from_mapping
-from foos_vision.markers import MarkerLayout, load_markers
+from foos_vision.markers import MarkerLayout
 from foos_vision.rod_lines import rod_geometry, rod_mask
 from foos_vision.tracker import PARTIAL_RUN, BallTracker, TrackerConfig
 
@@ -24,36 +26,22 @@ from foos_vision.tracker import PARTIAL_RUN, BallTracker, TrackerConfig
 # view (a ball of 5 px or more is first looked for at half resolution).
 SCALE = 260.0  # px per m: u = 319.5 + SCALE * y, v = 239.5 + SCALE * x
 TAG_PX = 24  # 4 px per cell of a 4x4 tag with its border
-TAGS = {0: (-0.40, -0.68), 1: (0.40, -0.68), 2: (0.40, 0.0), 3: (-0.40, 0.0), 4: (0.40, 0.68), 5: (-0.40, 0.68)}
-FELT_BGR, ORANGE_BGR, STEEL_BGR = (40, 140, 30), (20, 120, 250), (170, 170, 170)
 RADIUS_PX = 0.0175 * SCALE
 ROD_Y = 0.225  # home attack: figures at x = -0.185, 0, 0.185 when centred, none near the ball
 BALL_X = 0.09
 
 
 def to_pixel(x: float, y: float) -> tuple[float, float]:
-    return 319.5 + SCALE * y, 239.5 + SCALE * x
+    return drawn_table.to_pixel(x, y, SCALE)
 
 
 @pytest.fixture(scope="module")
 def layout(tmp_path_factory) -> MarkerLayout:
-    path = tmp_path_factory.mktemp("rod") / "markers.yaml"
-    lines = ["dictionary: DICT_4X4_50", f"size: {TAG_PX / SCALE}", "markers:"]
-    path.write_text("\n".join(lines + [f"  {i}: [{x}, {y}, 0.0175]" for i, (x, y) in TAGS.items()]) + "\n")
-    return load_markers(path)
+    return drawn_table.write_layout(tmp_path_factory.mktemp("rod") / "markers.yaml", TAG_PX / SCALE)
 
 
 def table_frame() -> np.ndarray:
-    frame = np.zeros((480, 640, 3), np.uint8)
-    frame[:] = FELT_BGR
-    dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50)
-    for tag_id, (x, y) in TAGS.items():
-        u, v = to_pixel(x, y)
-        tag = cv2.cvtColor(cv2.aruco.generateImageMarker(dictionary, tag_id, TAG_PX), cv2.COLOR_GRAY2BGR)
-        tag = cv2.copyMakeBorder(tag, 4, 4, 4, 4, cv2.BORDER_CONSTANT, value=(255, 255, 255))
-        u0, v0 = int(round(u - (tag.shape[1] - 1) / 2)), int(round(v - (tag.shape[0] - 1) / 2))
-        frame[v0:v0 + tag.shape[0], u0:u0 + tag.shape[1]] = tag
-    return frame
+    return drawn_table.table_frame(SCALE, TAG_PX, border=4)
 
 
 def rods_in_view(tracker: BallTracker) -> np.ndarray:

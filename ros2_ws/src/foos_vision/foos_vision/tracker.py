@@ -57,6 +57,7 @@ AUTO_WINDOW = 300
 # A blob in a rod's band seen again this close in ball-plane y (m) and at least this far along x (m) is a figure
 # sliding with its rod, for the auto colour vote (rod_lines).
 ROD_LINE_Y_TOL, ROD_LINE_MIN_DX = 0.004, 0.010
+REFIT_MOVED_PX = 0.5  # a tag refit that moves the field's corners less than this keeps the rods' placement
 EDGE_SAMPLES = 40  # whole balls in view whose colour masks give the mask's edge radius (BallDetector.edge_scale)
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The
@@ -118,9 +119,9 @@ class BallTracker:
         # ball partly behind a rod is measured as a partial view of a whole ball (BallDetector's hidden).
         self._hidden: Optional[np.ndarray] = None
         self._rod_pixels: Optional[np.ndarray] = None
-        # The rods less a pixel all round, kept out of the search: the rods' image is placed within about a pixel,
-        # and a white ball's lit edge beside a rod must not be cut off.
-        self._rod_core: Optional[np.ndarray] = None
+        # The field less the rods less a pixel all round, searched with the figure mask: the rods' image is placed
+        # within about a pixel, and a white ball's lit edge beside a rod must not be cut off.
+        self._region_less_rods: Optional[np.ndarray] = None
         self._projection: Optional[np.ndarray] = None
         self._joints: Optional[np.ndarray] = None  # this frame's, with the figure mask
         self._felt_ab: Optional[tuple[float, float]] = None
@@ -189,16 +190,27 @@ class BallTracker:
         for tag_id, error in (mapping.dropped or {}).items():
             self.stats.dropped_tags[tag_id] = max(error, self.stats.dropped_tags.get(tag_id, 0.0))
         if self.mapping is None or not np.allclose(mapping.image_to_table, self.mapping.image_to_table, atol=1e-9):
+            # A refit that moves the field by a fraction of a pixel is tag noise, not a camera that moved: the rods
+            # and the felt's colour are kept (placing the rods costs 12-20 ms).
+            moved = self.mapping is None or self._pixels_moved(self.mapping, mapping) > REFIT_MOVED_PX
             self.mapping = mapping
             self._update_region(bgr.shape[1], bgr.shape[0])
             if self._masker is not None:
-                shifts = fit_rod_shifts(bgr, self._region, self._rods, self._projection, self.lens.distort)
-                self._rod_pixels = rod_mask(self._rods, self._projection, self.lens.distort, (bgr.shape[1], bgr.shape[0]),
-                                            shifts)
-                self._rod_core = cv2.erode(self._rod_pixels, np.ones((3, 3), np.uint8))
-            # The felt is most of the field: its median colour (Lab a, b) tells bare felt from everything else.
-            field = cv2.cvtColor(np.ascontiguousarray(bgr[::4, ::4]), cv2.COLOR_BGR2Lab)[self._region[::4, ::4] > 0]
-            self._felt_ab = (float(np.median(field[:, 1])), float(np.median(field[:, 2])))
+                if moved or self._rod_pixels is None:
+                    shifts = fit_rod_shifts(bgr, self._region, self._rods, self._projection, self.lens.distort)
+                    self._rod_pixels = rod_mask(self._rods, self._projection, self.lens.distort,
+                                                (bgr.shape[1], bgr.shape[0]), shifts)
+                core = cv2.erode(self._rod_pixels, np.ones((3, 3), np.uint8))
+                self._region_less_rods = cv2.bitwise_and(self._region, cv2.bitwise_not(core))
+            if moved or self._felt_ab is None:
+                # The felt is most of the field: its median colour (Lab a, b) tells bare felt from everything else.
+                field = cv2.cvtColor(np.ascontiguousarray(bgr[::4, ::4]), cv2.COLOR_BGR2Lab)[self._region[::4, ::4] > 0]
+                self._felt_ab = (float(np.median(field[:, 1])), float(np.median(field[:, 2])))
+
+    def _pixels_moved(self, old: PlaneMapping, new: PlaneMapping) -> float:
+        """How far (px) the field's corners move from one homography to the other."""
+        corners = np.array([(sx * FIELD_HALF_X, sy * FIELD_HALF_Y) for sx in (-1, 1) for sy in (-1, 1)])
+        return float(np.max(np.linalg.norm(old.to_image(corners) - new.to_image(corners), axis=1)))
 
     def _update_region(self, width: int, height: int) -> None:
         m = BALL_RADIUS
@@ -253,7 +265,7 @@ class BallTracker:
         self._hidden = self._rod_pixels
         self._joints, self._feet = np.asarray(joints, float), None
         figures = self._masker.mask(self._joints)
-        self._active_region = cv2.bitwise_and(self._region, cv2.bitwise_not(cv2.bitwise_or(figures, self._rod_core)))
+        self._active_region = cv2.bitwise_and(self._region_less_rods, cv2.bitwise_not(figures))
         if self._search_scale != 1.0:
             x0, y0, x1, y1 = self._roi
             self._active_region_small = cv2.resize(self._active_region[y0:y1, x0:x1], None, fx=0.5, fy=0.5,
