@@ -125,6 +125,7 @@ class BallTracker:
         self._projection: Optional[np.ndarray] = None
         self._joints: Optional[np.ndarray] = None  # this frame's, with the figure mask
         self._felt_ab: Optional[tuple[float, float]] = None
+        self._placed_for: Optional[PlaneMapping] = None  # the tag fit the rods and the felt's colour were taken at
         self._feet: Optional[np.ndarray] = None  # footprints of the figures' parts below the ball's top, made on demand
         self.config = config or TrackerConfig()
         if self.config.ball_color != "auto" and self.config.ball_color not in BALL_COLOR_NAMES:
@@ -192,7 +193,9 @@ class BallTracker:
         if self.mapping is None or not np.allclose(mapping.image_to_table, self.mapping.image_to_table, atol=1e-9):
             # A refit that moves the field by a fraction of a pixel is tag noise, not a camera that moved: the rods
             # and the felt's colour are kept (placing the rods costs 12-20 ms).
-            moved = self.mapping is None or self._pixels_moved(self.mapping, mapping) > REFIT_MOVED_PX
+            moved = self._placed_for is None or self._pixels_moved(self._placed_for, mapping) > REFIT_MOVED_PX
+            if moved:
+                self._placed_for = mapping
             self.mapping = mapping
             self._update_region(bgr.shape[1], bgr.shape[0])
             if self._masker is not None:
@@ -319,7 +322,7 @@ class BallTracker:
         self._last_t = t
         size = (bgr.shape[1], bgr.shape[0])
         if self._frame_size not in (None, size):
-            self.mapping = None  # a different camera mode: the old fit means nothing
+            self.mapping = self._placed_for = None  # a different camera mode: the old fit means nothing
         self._frame_size = size
         self.stats.frames += 1
         if self.mapping is None or self.stats.frames % self.config.tag_interval == 0:
