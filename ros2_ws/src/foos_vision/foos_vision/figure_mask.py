@@ -120,6 +120,20 @@ def projection_from_mapping(mapping: PlaneMapping, image_size: tuple[int, int], 
     return k @ np.column_stack([r1, r2, r3, t]) @ shift
 
 
+def project_points(projection: np.ndarray, distort, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Table points (N, 3) to image pixels (N, 2) through a 3x4 projection (projection_from_mapping) and a lens's
+    distort, and their depth (N,): a point at depth <= 0 is behind the camera and its pixel means nothing."""
+    homogeneous = np.concatenate([points, np.ones((len(points), 1))], axis=1) @ projection.T
+    depth = homogeneous[:, 2]
+    return distort(homogeneous[:, :2] / np.where(np.abs(depth) < 1e-9, 1e-9, depth)[:, None]), depth
+
+
+def fill_convex(mask: np.ndarray, hull: np.ndarray) -> None:
+    """Fill a convex polygon given in float pixel coordinates into mask (255), to 1/16 px."""
+    scale = float(1 << _SUBPIXEL_BITS)
+    cv2.fillConvexPoly(mask, np.round(hull * scale).astype(np.int32), 255, cv2.LINE_8, _SUBPIXEL_BITS)
+
+
 class FigureMasker:
     """The image footprint of every figure for given joint positions, under one camera."""
 
@@ -144,9 +158,7 @@ class FigureMasker:
             points, kept = clip_above(corners, BALL_TOP)
         points = points[kept]
         g, n = points.shape[:2]
-        homogeneous = np.concatenate([points.reshape(-1, 3), np.ones((g * n, 1))], axis=1) @ self.projection.T
-        depth = homogeneous[:, 2]
-        pixels = self.lens.distort(homogeneous[:, :2] / np.where(np.abs(depth) < 1e-9, 1e-9, depth)[:, None])
+        pixels, depth = project_points(self.projection, self.lens.distort, points.reshape(-1, 3))
         pixels = pixels.reshape(g, n, 2).astype(np.float32)
         in_front = np.all(depth.reshape(g, n) > 0, axis=1)  # a box behind the camera is not in the image
         return [cv2.convexHull(p) for p, ok in zip(pixels, in_front) if ok]
@@ -154,9 +166,8 @@ class FigureMasker:
     def mask(self, joints: np.ndarray, below: bool = False) -> np.ndarray:
         """uint8 image, 255 under a figure (plus the margin); below: under the figures' parts below the ball's top."""
         mask = np.zeros((self.height, self.width), np.uint8)
-        scale = float(1 << _SUBPIXEL_BITS)
         for hull in self.footprints(joints, below):
-            cv2.fillConvexPoly(mask, np.round(hull * scale).astype(np.int32), 255, cv2.LINE_8, _SUBPIXEL_BITS)
+            fill_convex(mask, hull)
         if self.margin_px > 0:
             size = 2 * self.margin_px + 1
             mask = cv2.dilate(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size)))

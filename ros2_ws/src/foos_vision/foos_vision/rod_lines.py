@@ -22,6 +22,7 @@ from typing import Optional
 import cv2
 import numpy as np
 
+from .figure_mask import fill_convex, project_points
 from .markers import BALL_CENTRE_HEIGHT
 
 
@@ -84,11 +85,6 @@ STEEL_AB_TOL, STEEL_L = 10, (60, 250)
 ROD_SHIFT_MAX, ROD_SHIFT_STEP = 0.008, 0.0005  # m of ball-plane y searched around each rod's nominal image
 
 
-def _project(projection: np.ndarray, distort, points: np.ndarray) -> np.ndarray:
-    h = np.concatenate([points, np.ones((len(points), 1))], axis=1) @ projection.T
-    return distort(h[:, :2] / h[:, 2:3])
-
-
 def fit_rod_shifts(bgr: np.ndarray, region: np.ndarray, geometry: RodGeometry, projection: np.ndarray,
                    distort) -> np.ndarray:
     """Per rod, the shift in y (m) that puts its axis's image on the grey steel seen in this frame.
@@ -107,7 +103,7 @@ def fit_rod_shifts(bgr: np.ndarray, region: np.ndarray, geometry: RodGeometry, p
     for y in geometry.rod_y:
         grid_x, grid_y = np.meshgrid(xs, y + shifts)  # (shifts, xs)
         points = np.column_stack([grid_x.ravel(), grid_y.ravel(), np.full(grid_x.size, geometry.axis_height)])
-        p = np.round(_project(projection, distort, points)).astype(int).reshape(len(shifts), len(xs), 2)
+        p = np.round(project_points(projection, distort, points)[0]).astype(int).reshape(len(shifts), len(xs), 2)
         inside = (p[..., 0] >= 0) & (p[..., 0] < width) & (p[..., 1] >= 0) & (p[..., 1] < height)
         p = np.where(inside[..., None], p, 0)
         seen = inside & (region[p[..., 1], p[..., 0]] > 0)
@@ -137,17 +133,16 @@ def rod_mask(geometry: RodGeometry, projection: np.ndarray, distort, image_size:
     angle = np.linspace(0, 2 * np.pi, _ROD_SECTION, endpoint=False)
     n_pieces = max(1, int(np.ceil(2 * geometry.half_length / _ROD_PIECE)))
     xs = np.linspace(-geometry.half_length, geometry.half_length, n_pieces + 1)
-    scale = 16.0
     for i, y in enumerate(geometry.rod_y):
         if shifts is not None:
             y += shifts[i]
         ring_y = y + geometry.radius * np.cos(angle)
         ring_z = geometry.axis_height + geometry.radius * np.sin(angle)
-        points = np.array([(x, cy, cz, 1.0) for x in xs for cy, cz in zip(ring_y, ring_z)]) @ projection.T
-        if np.any(points[:, 2] <= 0):
+        pixels, depth = project_points(projection, distort,
+                                       np.array([(x, cy, cz) for x in xs for cy, cz in zip(ring_y, ring_z)]))
+        if np.any(depth <= 0):
             continue  # a rod reaching behind the camera: not a view of a table
-        pixels = distort(points[:, :2] / points[:, 2:3]).reshape(len(xs), _ROD_SECTION, 2)
+        pixels = pixels.reshape(len(xs), _ROD_SECTION, 2)
         for a, b in zip(pixels[:-1], pixels[1:]):
-            hull = cv2.convexHull(np.concatenate([a, b]).astype(np.float32))
-            cv2.fillConvexPoly(mask, np.round(hull * scale).astype(np.int32), 255, cv2.LINE_8, 4)
+            fill_convex(mask, cv2.convexHull(np.concatenate([a, b]).astype(np.float32)))
     return mask
