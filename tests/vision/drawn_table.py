@@ -44,8 +44,10 @@ def table_frame(scale: float = SCALE, tag_px: int = int(0.06 * SCALE), border: i
     return frame
 
 
-def draw_ball(frame: np.ndarray, x: float, y: float, bgr=ORANGE_BGR) -> None:
-    """A ball drawn with sub-pixel centre and an anti-aliased edge, like a camera's."""
-    u, v = to_pixel(x, y)
-    cv2.circle(frame, (int(round(u * 4)), int(round(v * 4))), int(round(RADIUS_PX * 4)), bgr, -1,
+def draw_ball(frame: np.ndarray, x: float, y: float, bgr=ORANGE_BGR, scale: float = SCALE,
+              thickness: int = -1) -> None:
+    """A ball drawn with sub-pixel centre and an anti-aliased edge, like a camera's (thickness > 0: only its
+    outline, as a figure's hollow outline of the ball's colour looks)."""
+    u, v = to_pixel(x, y, scale)
+    cv2.circle(frame, (int(round(u * 4)), int(round(v * 4))), int(round(0.0175 * scale * 4)), bgr, thickness,
                cv2.LINE_AA, shift=2)

@@ -67,16 +67,10 @@ def resting_under_the_rod(layout, hidden_share: float, ring: bool = False, maske
     segment = (np.arccos(distances / radius) - distances * np.sqrt(radius**2 - distances**2) / radius**2) / math.pi
     d = float(distances[np.argmin(np.abs(segment - hidden_share))])
     y = (edge - d - 319.5) / SCALE
-    u, v = to_pixel(BALL_X, y)
     found = {}
     for k in range(1, 16):
         frame = table_frame()
-        if ring:
-            cv2.circle(frame, (int(round(u * 4)), int(round(v * 4))), int(round(radius * 4)), ORANGE_BGR, 1,
-                       cv2.LINE_AA, shift=2)
-        else:
-            cv2.circle(frame, (int(round(u * 4)), int(round(v * 4))), int(round(radius * 4)), ORANGE_BGR, -1,
-                       cv2.LINE_AA, shift=2)
+        drawn_table.draw_ball(frame, BALL_X, y, ORANGE_BGR, SCALE, thickness=1 if ring else -1)
         frame[rods] = STEEL_BGR
         detection = tracker.process(cv2.GaussianBlur(frame, (3, 3), 0.7), k / 60.0, hanging if masked else None)
         if detection is not None:
