@@ -10,7 +10,9 @@ dimensions and crosses the rod lines. The figures' sizes and rod positions are f
 table, or a calibrated table's parameter file).
 
 The steel rods themselves are always in front of the ball (a rod's underside is 70 mm up, the ball's top 35
-mm), so their image (`rod_mask`) is where the ball is known to be hidden, never where it is.
+mm), so their image (`rod_mask`) is where the ball is known to be hidden, never where it is. The converse
+holds too: nothing on the field can hide a rod, but a figure can (the rod runs through its body) and so can a
+hand. A blob that covers a rod's axis (`rod_axis_mask`) is therefore not the ball.
 
 ROS-free: plain numpy and OpenCV.
 """
@@ -78,6 +80,7 @@ def on_rod_line(y: float, bands: np.ndarray) -> bool:
 # The rod's image is filled as convex pieces this long (m): a lens bends a long rod, a short piece stays convex.
 _ROD_PIECE = 0.05
 _ROD_SECTION = 16  # points around the rod's cross-section
+_AXIS_SUBPIXEL_BITS = 4
 
 
 # Steel in OpenCV's 8-bit Lab: grey (a, b near 128) and neither black nor a white highlight's full glare.
@@ -92,7 +95,7 @@ def fit_rod_shifts(bgr: np.ndarray, region: np.ndarray, geometry: RodGeometry, p
     The camera's height comes from the tags, and near straight down only from a field-of-view hint: a rod 60 mm
     above the ball plane then lands a pixel off at the far end, a fifth of a small ball's radius. A rod is a long
     grey line on the felt, so its image is found where grey is along the predicted line: the middle of the
-    run of shifts whose line lies on steel. Rods not seen (nothing grey) keep their nominal place."""
+    run of shifts whose line lies on steel. A rod not seen (nothing grey along it) gets NaN."""
     height, width = region.shape
     # The axis's line lies on steel for shifts up to a rod radius either side of the true one: search that far
     # past the largest shift, so that the run of shifts on steel is never cut short by the search's end.
@@ -115,7 +118,7 @@ def fit_rod_shifts(bgr: np.ndarray, region: np.ndarray, geometry: RodGeometry, p
         count = seen.sum(axis=1)
         score = np.where(count >= 20, on_steel.sum(axis=1) / np.maximum(count, 1), 0.0)
         if score.max() < 0.5:
-            found.append(0.0)
+            found.append(float("nan"))
             continue
         on = np.nonzero(score >= 0.8 * score.max())[0]
         found.append(float(np.clip(shifts[on].mean(), -ROD_SHIFT_MAX, ROD_SHIFT_MAX)))
@@ -125,7 +128,8 @@ def fit_rod_shifts(bgr: np.ndarray, region: np.ndarray, geometry: RodGeometry, p
 def rod_mask(geometry: RodGeometry, projection: np.ndarray, distort, image_size: tuple[int, int],
              shifts: Optional[np.ndarray] = None) -> np.ndarray:
     """uint8 image, 255 where a steel rod is seen. projection: 3x4 table -> undistorted pixels (table frame with z
-    up from the field); distort: undistorted -> image pixels (N, 2); shifts: per rod, m of y (fit_rod_shifts).
+    up from the field); distort: undistorted -> image pixels (N, 2); shifts: per rod, m of y (fit_rod_shifts; a
+    rod not seen, NaN, is drawn at its nominal place: it is there, hidden or not).
     A cylinder is the convex hull of its end circles, so each piece's image is the hull of its two circles'
     images."""
     width, height = image_size
@@ -134,7 +138,7 @@ def rod_mask(geometry: RodGeometry, projection: np.ndarray, distort, image_size:
     n_pieces = max(1, int(np.ceil(2 * geometry.half_length / _ROD_PIECE)))
     xs = np.linspace(-geometry.half_length, geometry.half_length, n_pieces + 1)
     for i, y in enumerate(geometry.rod_y):
-        if shifts is not None:
+        if shifts is not None and np.isfinite(shifts[i]):
             y += shifts[i]
         ring_y = y + geometry.radius * np.cos(angle)
         ring_z = geometry.axis_height + geometry.radius * np.sin(angle)
@@ -145,4 +149,26 @@ def rod_mask(geometry: RodGeometry, projection: np.ndarray, distort, image_size:
         pixels = pixels.reshape(len(xs), _ROD_SECTION, 2)
         for a, b in zip(pixels[:-1], pixels[1:]):
             fill_convex(mask, cv2.convexHull(np.concatenate([a, b]).astype(np.float32)))
+    return mask
+
+
+def rod_axis_mask(geometry: RodGeometry, projection: np.ndarray, distort, image_size: tuple[int, int],
+                  shifts: Optional[np.ndarray] = None) -> np.ndarray:
+    """uint8 image, 255 on the one-pixel line of each rod's axis (same arguments as rod_mask). The axis is the
+    middle of the rod's image, a rod radius from either edge, so a placement a pixel off still finds steel there.
+    A rod not seen on the steel (NaN shift) is left out: what covers it is not known to be in front of it."""
+    width, height = image_size
+    mask = np.zeros((height, width), np.uint8)
+    xs = np.arange(-geometry.half_length, geometry.half_length + 1e-9, 0.01)
+    for i, y in enumerate(geometry.rod_y):
+        if shifts is not None:
+            if not np.isfinite(shifts[i]):
+                continue
+            y += shifts[i]
+        pixels, depth = project_points(projection, distort,
+                                       np.column_stack([xs, np.full_like(xs, y), np.full_like(xs, geometry.axis_height)]))
+        if np.any(depth <= 0):
+            continue
+        scale = float(1 << _AXIS_SUBPIXEL_BITS)
+        cv2.polylines(mask, [np.round(pixels * scale).astype(np.int32)], False, 255, 1, cv2.LINE_8, _AXIS_SUBPIXEL_BITS)
     return mask

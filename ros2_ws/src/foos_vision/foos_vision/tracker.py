@@ -15,7 +15,8 @@ from .errors import MarkersError
 from .figure_mask import FigureGeometry, FigureMasker, projection_from_mapping
 from .geometry import MAX_TAG_RESIDUAL, Lens, PlaneMapping, TagLocator, fit_mapping
 from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
-from .rod_lines import RodGeometry, camera_centre, fit_rod_shifts, on_rod_line, rod_bands, rod_geometry, rod_mask
+from .rod_lines import (STEEL_AB_TOL, RodGeometry, camera_centre, fit_rod_shifts, on_rod_line, rod_axis_mask,
+                        rod_bands, rod_geometry, rod_mask)
 from .velocity import ConstantVelocityKalman, KalmanState
 
 BALL_RADIUS = 0.0175
@@ -57,6 +58,12 @@ AUTO_WINDOW = 300
 # A blob in a rod's band seen again this close in ball-plane y (m) and at least this far along x (m) is a figure
 # sliding with its rod, for the auto colour vote (rod_lines).
 ROD_LINE_Y_TOL, ROD_LINE_MIN_DX = 0.004, 0.010
+# A blob with a rod's axis beside its centre mostly in the ball's colour covers the rod: a figure of that colour
+# (the rod runs through its body), never the ball, which is below every rod (_covers_rod). The axis is looked at
+# within ROD_COVER_RADIUS expected radii of the centre and ROD_COVER_ALONG radii along the rod of its nearest
+# point; covered when ROD_COVER_SHARE of it is within ROD_COVER_AB times the colour model's a/b tolerance.
+# Only for coloured balls: a white ball is as grey as steel's highlights.
+ROD_COVER_RADIUS, ROD_COVER_ALONG, ROD_COVER_SHARE, ROD_COVER_AB = 1.3, 0.5, 0.5, 1.6
 REFIT_MOVED_PX = 0.5  # a tag refit that moves the field's corners less than this keeps the rods' placement
 EDGE_SAMPLES = 40  # whole balls in view whose colour masks give the mask's edge radius (BallDetector.edge_scale)
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
@@ -119,6 +126,8 @@ class BallTracker:
         # ball partly behind a rod is measured as a partial view of a whole ball (BallDetector's hidden).
         self._hidden: Optional[np.ndarray] = None
         self._rod_pixels: Optional[np.ndarray] = None
+        self._rod_axes: Optional[np.ndarray] = None  # one-pixel line of each rod's axis (rod_lines.rod_axis_mask)
+        self._rods_unseen = False  # a rod was not found on its steel when the rods were last placed
         # The field less the rods less a pixel all round, searched with the figure mask: the rods' image is placed
         # within about a pixel, and a white ball's lit edge beside a rod must not be cut off.
         self._region_less_rods: Optional[np.ndarray] = None
@@ -198,11 +207,14 @@ class BallTracker:
                 self._placed_for = mapping
             self.mapping = mapping
             self._update_region(bgr.shape[1], bgr.shape[0])
+            # A rod not seen on its steel (a hand over it when the rods were placed) is looked for again.
+            if moved or self._rod_pixels is None or self._rods_unseen:
+                size = (bgr.shape[1], bgr.shape[0])
+                shifts = fit_rod_shifts(bgr, self._region, self._rods, self._projection, self.lens.distort)
+                self._rods_unseen = bool(np.any(np.isnan(shifts)))
+                self._rod_pixels = rod_mask(self._rods, self._projection, self.lens.distort, size, shifts)
+                self._rod_axes = rod_axis_mask(self._rods, self._projection, self.lens.distort, size, shifts)
             if self._masker is not None:
-                if moved or self._rod_pixels is None:
-                    shifts = fit_rod_shifts(bgr, self._region, self._rods, self._projection, self.lens.distort)
-                    self._rod_pixels = rod_mask(self._rods, self._projection, self.lens.distort,
-                                                (bgr.shape[1], bgr.shape[0]), shifts)
                 core = cv2.erode(self._rod_pixels, np.ones((3, 3), np.uint8))
                 self._region_less_rods = cv2.bitwise_and(self._region, cv2.bitwise_not(core))
             if moved or self._felt_ab is None:
@@ -250,7 +262,7 @@ class BallTracker:
         self.figures_masked = False
         if self.figures is not None:
             self._masker = FigureMasker(self.figures, projection, self.lens, (width, height))
-            self._projection = projection  # the rods are placed by _refit, on this frame's steel
+        self._projection = projection  # the rods are placed by _refit, on this frame's steel
         self._hidden = None
         self._rod_bands = rod_bands(self._rods, camera_centre(projection))
 
@@ -520,7 +532,7 @@ class BallTracker:
             candidates, self._field_lab, _ = self.detector.candidates(bgr, self._roi, self._radius_at_pixel,
                                                                       self._min_radius, self._active_region, use_band=False,
                                                                       hidden=self._hidden, felt_ab=self._felt_ab)
-            return candidates
+            return [c for c in candidates if not self._covers_rod(bgr, c)]
         x0, y0, x1, y1 = self._roi
         small = cv2.resize(bgr[y0:y1, x0:x1], None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
         h, w = small.shape[:2]
@@ -548,11 +560,41 @@ class BallTracker:
                                                       felt_ab=self._felt_ab)
         near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate
                 and (c.score > MIN_SCORE or (c.score > PARTIAL_MIN_SCORE and c.area_ratio >= PARTIAL_MIN_RATIO
-                                             and math.hypot(c.u - centre[0], c.v - centre[1]) <= partial_reach))]
+                                             and math.hypot(c.u - centre[0], c.v - centre[1]) <= partial_reach))
+                and not self._covers_rod(bgr, c)]
         if not near:
             return None, lab, roi
         best = min(near, key=lambda c: math.hypot(c.u - centre[0], c.v - centre[1]) / gate - c.score)
         return best, lab, roi
+
+    def _covers_rod(self, bgr: np.ndarray, c: Candidate) -> bool:
+        """The blob lies over a rod's axis, in the ball's colour: a figure of that colour (or anything else above
+        the rods), not the ball, which the rods are always in front of."""
+        if self._rod_axes is None or self.colour.hue_lo is None:
+            return False
+        radius = self._radius_at_pixel(c.u, c.v)
+        reach = ROD_COVER_RADIUS * radius
+        h, w = self._rod_axes.shape
+        x0, y0 = max(0, int(c.u - reach)), max(0, int(c.v - reach))
+        x1, y1 = min(w, int(c.u + reach) + 2), min(h, int(c.v + reach) + 2)
+        ys, xs = np.nonzero(self._rod_axes[y0:y1, x0:x1])
+        xs, ys = xs + x0, ys + y0
+        squared = (xs - c.u) ** 2 + (ys - c.v) ** 2
+        inside = squared <= reach * reach
+        if np.count_nonzero(inside) < 2:
+            return False
+        # Only the axis beside the blob's centre, within ROD_COVER_ALONG radii along the rod of the nearest axis
+        # point: a figure's head has its middle there, while a ball beside a kicking figure's leg, which covers the
+        # rod a radius along, does not.
+        inside &= squared <= squared[inside].min() + (ROD_COVER_ALONG * radius) ** 2
+        pixels = np.ascontiguousarray(bgr[ys[inside], xs[inside]][:, None, :])
+        ab = cv2.cvtColor(pixels, cv2.COLOR_BGR2Lab)[:, 0, 1:].astype(float)
+        model = self.colour
+        # Of a colour near the ball's (a red figure passes for an orange ball by its orange-lit edges only) and
+        # not grey like the steel.
+        near = np.max(np.abs(ab - (model.a, model.b)), axis=1) <= ROD_COVER_AB * model.ab_tol
+        coloured = near & (np.max(np.abs(ab - 128.0), axis=1) > 1.5 * STEEL_AB_TOL)
+        return bool(np.count_nonzero(coloured) >= max(2, ROD_COVER_SHARE * len(pixels)))
 
     def _fixture(self, c: Candidate, count: bool = True) -> bool:
         """A ball-like blob that sits at the same pixel frame after frame, while no ball is tracked, is part of
