@@ -54,10 +54,14 @@ def resting_under_the_rod(layout, hidden_share: float, ring: bool = False, maske
     """At 60 fps, a ball at rest beside the rod at y = ROD_Y with `hidden_share` of its disc behind it, never seen
     whole, while no track runs (or, ring: the hollow outline of a figure of the ball's colour there). Returns the
     detections by frame, and the ball's y."""
+    probe = BallTracker(layout, TrackerConfig(ball_color="orange"))
+    probe.process(table_frame(), 0.0)  # the tags: the camera and so the rods' image
+    rods = rods_in_view(probe)
     tracker = BallTracker(layout, TrackerConfig(ball_color="orange"), FigureGeometry())
     hanging = np.zeros(len(JOINT_NAMES))
-    tracker.process(table_frame(), 0.0)  # the tags: the camera and so the rods' image
-    rods = rods_in_view(tracker)
+    empty = table_frame()
+    empty[rods] = STEEL_BGR
+    tracker.process(cv2.GaussianBlur(empty, (3, 3), 0.7), 0.0)  # the table with its rods, before the ball
     u_rod, v_ball = to_pixel(BALL_X, ROD_Y)
     columns = np.nonzero(rods[int(round(v_ball))])[0]
     edge = columns[np.abs(columns - u_rod) < 20].min() - 0.5  # the rod's image begins here (it runs along v)
@@ -79,10 +83,13 @@ def resting_under_the_rod(layout, hidden_share: float, ring: bool = False, maske
 
 
 @pytest.mark.timeout(60)
-@pytest.mark.parametrize("hidden_share", [0.55, 0.65])
-def test_a_ball_resting_half_under_a_rod_starts_a_track(layout, hidden_share):
-    found, y = resting_under_the_rod(layout, hidden_share)
-    # Never whole, so a run of partial blobs on one steady path (at rest) starts the track, with the figures masked.
+@pytest.mark.parametrize("hidden_share, masked", [(0.55, True), (0.65, True), (0.45, False)])
+def test_a_ball_resting_half_under_a_rod_starts_a_track(layout, hidden_share, masked):
+    found, y = resting_under_the_rod(layout, hidden_share, masked=masked)
+    # Never whole, so a run of partial blobs on one steady path (at rest) starts the track: with the figures masked,
+    # and without the mask too, since for a coloured ball a figure's head over its rod is dropped. Without the mask
+    # what shows is judged against the whole disc (the rods' share counts only with it: without, red figures half
+    # behind their rods passed for balls), so there the ball may be no more than about half hidden.
     assert found and min(found) <= PARTIAL_RUN, sorted(found)
     assert all(k in found for k in range(min(found), 16)), sorted(found)
     for k, (dx, dy) in found.items():
@@ -90,8 +97,7 @@ def test_a_ball_resting_half_under_a_rod_starts_a_track(layout, hidden_share):
 
 
 @pytest.mark.timeout(60)
-def test_no_track_under_a_rod_from_a_hollow_outline_or_without_the_mask(layout):
-    ring, _ = resting_under_the_rod(layout, 0.45, ring=True)
+@pytest.mark.parametrize("masked", [True, False])
+def test_no_track_under_a_rod_from_a_hollow_outline(layout, masked):
+    ring, _ = resting_under_the_rod(layout, 0.45, ring=True, masked=masked)
     assert not ring, sorted(ring)
-    unmasked, _ = resting_under_the_rod(layout, 0.45, masked=False)
-    assert not unmasked, sorted(unmasked)

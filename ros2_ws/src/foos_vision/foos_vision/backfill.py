@@ -116,7 +116,7 @@ class OfflineTracker:
             if not (tr._solid(candidate) or tr._confident(candidate)):
                 # Parts of a ball alone, for no longer than the forward tracker allows them.
                 weak_since = (t, index) if weak_since is None else weak_since
-                if weak_too_long(weak_since[0] - t, weak_since[1] - index, tr.figures_masked):
+                if weak_too_long(weak_since[0] - t, weak_since[1] - index, tr.figures_guarded):
                     break
             else:
                 weak_since = None
