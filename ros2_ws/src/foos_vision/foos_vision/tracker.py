@@ -296,8 +296,8 @@ class BallTracker:
     def figures_guarded(self) -> bool:
         """A figure of the ball's colour cannot pass for the ball in this frame: the figures are masked out, or
         the ball is coloured and every rod was found on its steel, so a blob over a rod (a figure's head,
-        `_covers_rod`) is dropped. (The feet and legs are not, but they are merged with the body or thin; on the
-        28 check videos the relaxed rules gave no false detection there.)"""
+        `_covers_rod`) is dropped. (A figure's legs and feet are not, but on the 21 coloured check videos without
+        the mask the relaxed rules added no false detection.)"""
         return self.figures_masked or (self._rod_axes is not None and not self._rods_unseen
                                        and self.colour.hue_lo is not None)
 
@@ -600,8 +600,7 @@ class BallTracker:
         if np.count_nonzero(inside) < 2:
             return False
         # Only the axis beside the blob's centre, within ROD_COVER_ALONG radii along the rod of the nearest axis
-        # point: a figure's head has its middle there, while a ball beside a kicking figure's leg, which covers the
-        # rod a radius along, does not.
+        # point: a figure's head has its middle there and covers only part of the chord within reach.
         inside &= squared <= squared[inside].min() + (ROD_COVER_ALONG * radius) ** 2
         pixels = np.ascontiguousarray(bgr[ys[inside], xs[inside]][:, None, :])
         ab = cv2.cvtColor(pixels, cv2.COLOR_BGR2Lab)[:, 0, 1:].astype(float)
