@@ -49,7 +49,7 @@ CONFIDENT_RUN = 3
 # on one straight, steady path (within PARTIAL_RUN_FIT m RMS), moving or at rest. Never otherwise (a white ball
 # without the mask): a figure of the ball's colour sliding with its rod (or at rest) makes such a run. 0: off.
 PARTIAL_RUN, PARTIAL_RUN_FIT = 4, 0.003
-HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.45, 0.5  # field search at half resolution: blobs worth a full-resolution look
+HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.3, 0.4  # field search at half resolution: blobs worth a full-resolution look
 ELSEWHERE_EVERY = 3  # frames between searches of the whole field for a whole ball while the track is weak
 HEALTHY_FILL, HEALTHY_ROUNDNESS = 0.75, 0.8  # or a single frame this filled and round  # ball-like frames in a row that make a track on partial blobs healthy again
 AUTO_MIN_SHARE = 0.3  # auto colour: share of the frames looked at in which the winner saw one moving ball
@@ -65,6 +65,9 @@ ROD_LINE_Y_TOL, ROD_LINE_MIN_DX = 0.004, 0.010
 # point; covered when ROD_COVER_SHARE of it is within ROD_COVER_AB times the colour model's a/b tolerance.
 # Only for coloured balls: a white ball is as grey as steel's highlights.
 ROD_COVER_RADIUS, ROD_COVER_ALONG, ROD_COVER_SHARE, ROD_COVER_AB = 1.3, 0.5, 0.5, 1.6
+# Radii from a partial blob within which pixels of (nearly) its colour joining it to a covered rod's axis make it
+# part of a figure: a kicked leg reaches its foot's end 78 mm (4.5 radii) from the axis.
+FIGURE_REACH = 5.0
 REFIT_MOVED_PX = 0.5  # a tag refit that moves the field's corners less than this keeps the rods' placement
 EDGE_SAMPLES = 40  # whole balls in view whose colour masks give the mask's edge radius (BallDetector.edge_scale)
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
@@ -480,7 +483,7 @@ class BallTracker:
             good = [c for c in candidates if self._starts_track(c) and not self._fixture(c)]
             if not good:
                 self._partials_now = [(c, self._field_lab, self._roi) for c in candidates
-                                      if self._partial_ball(c) and not self._fixture(c, count=False)]
+                                      if self._partial_ball(bgr, c) and not self._fixture(c, count=False)]
             return (max(good, key=lambda c: c.score), self._field_lab, self._roi) if good else (None, None, None)
         # Found at half resolution, where a ball of a few pixels looks less round and smaller than it is: the
         # blobs that nearly pass are measured again on the full-resolution pixels around them, and judged there.
@@ -491,14 +494,15 @@ class BallTracker:
             found = self._search_window(bgr, np.array([c.u, c.v]), 2 * radius + 3, 2 * radius + 3)
             if found[0] is not None and self._starts_track(found[0]):
                 return found
-            if found[0] is not None and self._partial_ball(found[0]):
+            if found[0] is not None and self._partial_ball(bgr, found[0]):
                 self._partials_now.append(found)
         return None, None, None
 
-    def _partial_ball(self, c: Candidate) -> bool:
-        """Part of a ball: enough of the disc, filled (not a figure's hollow outline), not merged with anything."""
+    def _partial_ball(self, bgr: np.ndarray, c: Candidate) -> bool:
+        """Part of a ball: enough of the disc, filled (not a figure's hollow outline), not merged with anything, and
+        not joined to a figure of its colour (the end of a kicked leg)."""
         return (c.area_ratio >= 0.4 and c.roundness >= 0.5 and c.fill >= MIN_PARTIAL_FILL and c.spill <= MAX_SPILL
-                and not self._on_a_foot(c))
+                and not self._on_a_foot(c) and not self._joined_to_a_covered_rod(bgr, c))
 
     def _on_a_foot(self, c: Candidate) -> bool:
         """With the figure mask, the centre of a blob lies on a figure's part below the ball's top. Only the parts
@@ -602,14 +606,39 @@ class BallTracker:
         # Only the axis beside the blob's centre, within ROD_COVER_ALONG radii along the rod of the nearest axis
         # point: a figure's head has its middle there and covers only part of the chord within reach.
         inside &= squared <= squared[inside].min() + (ROD_COVER_ALONG * radius) ** 2
-        pixels = np.ascontiguousarray(bgr[ys[inside], xs[inside]][:, None, :])
-        ab = cv2.cvtColor(pixels, cv2.COLOR_BGR2Lab)[:, 0, 1:].astype(float)
+        coloured = self._near_ball_colour(np.ascontiguousarray(bgr[ys[inside], xs[inside]][:, None, :]))
+        return bool(np.count_nonzero(coloured) >= max(2, ROD_COVER_SHARE * len(coloured)))
+
+    def _near_ball_colour(self, bgr: np.ndarray) -> np.ndarray:
+        """Pixels of a colour near the ball's and not grey like the steel (bool, the image's shape less its
+        channels): a red figure passes for an orange ball by its orange-lit edges only, so the box is wider."""
+        ab = cv2.cvtColor(bgr, cv2.COLOR_BGR2Lab)[..., 1:].astype(np.int16)
         model = self.colour
-        # Of a colour near the ball's (a red figure passes for an orange ball by its orange-lit edges only) and
-        # not grey like the steel.
-        near = np.max(np.abs(ab - (model.a, model.b)), axis=1) <= ROD_COVER_AB * model.ab_tol
-        coloured = near & (np.max(np.abs(ab - 128.0), axis=1) > 1.5 * STEEL_AB_TOL)
-        return bool(np.count_nonzero(coloured) >= max(2, ROD_COVER_SHARE * len(pixels)))
+        near = ((np.abs(ab[..., 0] - model.a) <= ROD_COVER_AB * model.ab_tol)
+                & (np.abs(ab[..., 1] - model.b) <= ROD_COVER_AB * model.ab_tol))
+        return near & (np.maximum(np.abs(ab[..., 0] - 128), np.abs(ab[..., 1] - 128)) > 1.5 * STEEL_AB_TOL)
+
+    def _joined_to_a_covered_rod(self, bgr: np.ndarray, c: Candidate) -> bool:
+        """Pixels of (nearly) the ball's colour join the blob to a stretch of rod axis they cover: the blob is part
+        of a figure of that colour (the end of a kicked leg, a foot), or touches one."""
+        if self._rod_axes is None or self.colour.hue_lo is None:
+            return False
+        reach = FIGURE_REACH * self._radius_at_pixel(c.u, c.v)
+        h, w = self._rod_axes.shape
+        x0, y0 = max(0, int(c.u - reach)), max(0, int(c.v - reach))
+        x1, y1 = min(w, int(c.u + reach) + 2), min(h, int(c.v + reach) + 2)
+        axes = self._rod_axes[y0:y1, x0:x1] > 0
+        if not np.any(axes):
+            return False
+        loose = self._near_ball_colour(np.ascontiguousarray(bgr[y0:y1, x0:x1])).astype(np.uint8)
+        _, labels = cv2.connectedComponents(loose, connectivity=8)
+        radius = self._radius_at_pixel(c.u, c.v)
+        ys, xs = np.nonzero(labels)
+        own = labels[ys, xs][(xs + x0 - c.u) ** 2 + (ys + y0 - c.v) ** 2 <= radius * radius]
+        if len(own) == 0:
+            return False
+        blob = np.bincount(own).argmax()
+        return bool(np.count_nonzero(labels[axes] == blob) >= 2)
 
     def _fixture(self, c: Candidate, count: bool = True) -> bool:
         """A ball-like blob that sits at the same pixel frame after frame, while no ball is tracked, is part of
@@ -649,6 +678,12 @@ class BallTracker:
             # ball coming out from under a foot shows a solid part. (A rod across a tracked ball's middle
             # also empties its inside, so this holds only while coasting.)
             if coast_frames >= 2 and found.fill < MIN_PARTIAL_FILL:
+                return None, lab, roi
+            # Nor may a track that has lost the ball go on with the end of a kicked figure's leg, joined in
+            # (nearly) its colour to the rod it covers (the hands video: the leg beside the hand that had just
+            # picked the ball up). Not before the ball is lost: a ball touching a figure of its colour, half
+            # hidden, is that too (applied in every frame: recall -1 to -7 points in six red and orange videos).
+            if coast_frames >= 1 and self._joined_to_a_covered_rod(bgr, found):
                 return None, lab, roi
         return found, lab, roi
 
