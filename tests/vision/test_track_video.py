@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import shutil
 
+import cv2
 import numpy as np
 import pytest
 import yaml
@@ -56,6 +57,9 @@ def test_track_video_matches_truth_and_stamps_frames(overhead_video, tmp_path):
     metres = np.loadtxt(tmp_path / "m.csv", delimiter=",", skiprows=1)
     assert px.shape == (len(frames), 3) and metres.shape == (len(frames), 5)
     assert (tmp_path / "seen.png").stat().st_size > 10_000
+    # The annotation draws the rods' axes where they were placed (magenta): all eight, over 100 px each.
+    seen = cv2.imread(str(tmp_path / "seen.png"))
+    assert np.count_nonzero(np.all(seen == (255, 0, 255), axis=2)) > 8 * 100
 
 
 @pytest.mark.timeout(120)

@@ -1,4 +1,5 @@
-"""What the tracker saw: tags, the homography grid on the ball plane, the ball and its recent track."""
+"""What the tracker saw: tags, the homography grid on the ball plane, the rods' axes as placed on the steel seen
+(a rod not found is not drawn), the ball and its recent track."""
 from __future__ import annotations
 
 from collections import deque
@@ -26,6 +27,8 @@ class Annotator:
                 self._line(out, [(x, -FIELD_HALF_Y), (x, FIELD_HALF_Y)])
             for y in np.arange(-FIELD_HALF_Y, FIELD_HALF_Y + 1e-9, 0.1):
                 self._line(out, [(-FIELD_HALF_X, y), (FIELD_HALF_X, y)])
+        if tr.rod_axes is not None:
+            out[tr.rod_axes > 0] = (255, 0, 255)
         if detection is not None:
             self.trail.append((detection.u, detection.v))
             radius = max(3, int(round(tr._radius_at_pixel(detection.u, detection.v))))

@@ -296,6 +296,12 @@ class BallTracker:
                                                    interpolation=cv2.INTER_NEAREST)
 
     @property
+    def rod_axes(self) -> Optional[np.ndarray]:
+        """uint8 image, 255 on each rod's axis as placed on the steel seen (rods not found left out); None before
+        the first tag fit."""
+        return self._rod_axes
+
+    @property
     def figures_guarded(self) -> bool:
         """A figure of the ball's colour cannot pass for the ball in this frame: the figures are masked out, or
         the ball is coloured and every rod was found on its steel, so a blob over a rod (a figure's head,
