@@ -74,6 +74,22 @@ def test_lens_undistort_inverts_distort():
     assert np.allclose(lens.undistort(lens.distort(pixels)), pixels, atol=1e-3)
 
 
+@pytest.mark.parametrize("coefficients", [(-0.3, 0.12, 0.001, -0.002, -0.02), (0.1, -0.05, 0.003, 0.0)])
+def test_lens_distort_is_opencvs_model(coefficients):
+    """Lens.distort computes OpenCV's (k1, k2, p1, p2, k3) model in numpy (placing the rods sends 100k points
+    through it): the same pixels as cv2.projectPoints."""
+    import cv2
+
+    from foos_vision.camera import Intrinsics
+
+    k = np.array([[579.4, 0.0, 319.5], [0.0, 571.2, 241.0], [0.0, 0.0, 1.0]])
+    d = np.array(coefficients, float)
+    pixels = np.random.default_rng(3).uniform((-50.0, -50.0), (690.0, 530.0), (2000, 2))
+    normalised = np.column_stack([(pixels - k[:2, 2]) / np.diag(k)[:2], np.ones(len(pixels))])
+    expected, _ = cv2.projectPoints(normalised.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+    assert np.abs(Lens(Intrinsics(k, d, 640, 480)).distort(pixels) - expected.reshape(-1, 2)).max() < 1e-9
+
+
 def test_fisheye_lens_maps_to_the_pinhole_of_the_same_camera_matrix():
     """Lens(fisheye) takes the image of cv2.fisheye to the ideal pinhole with the same K and back; it agrees
     with the camera's own projection; a fisheye with k = 0 is still no pinhole."""
