@@ -134,6 +134,12 @@ def fill_convex(mask: np.ndarray, hull: np.ndarray) -> None:
     cv2.fillConvexPoly(mask, np.round(hull * scale).astype(np.int32), 255, cv2.LINE_8, _SUBPIXEL_BITS)
 
 
+def draw_polyline(mask: np.ndarray, points: np.ndarray) -> None:
+    """Draw an open one-pixel line through float pixel coordinates into mask (255), to 1/16 px."""
+    scale = float(1 << _SUBPIXEL_BITS)
+    cv2.polylines(mask, [np.round(points * scale).astype(np.int32)], False, 255, 1, cv2.LINE_8, _SUBPIXEL_BITS)
+
+
 class FigureMasker:
     """The image footprint of every figure for given joint positions, under one camera."""
 

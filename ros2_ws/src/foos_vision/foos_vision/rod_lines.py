@@ -24,7 +24,7 @@ from typing import Optional
 import cv2
 import numpy as np
 
-from .figure_mask import fill_convex, project_points
+from .figure_mask import draw_polyline, fill_convex, project_points
 from .markers import BALL_CENTRE_HEIGHT
 
 
@@ -76,11 +76,9 @@ def on_rod_line(y: float, bands: np.ndarray) -> bool:
     return bool(np.any((bands[:, 0] <= y) & (y <= bands[:, 1])))
 
 
-
 # The rod's image is filled as convex pieces this long (m): a lens bends a long rod, a short piece stays convex.
 _ROD_PIECE = 0.05
 _ROD_SECTION = 16  # points around the rod's cross-section
-_AXIS_SUBPIXEL_BITS = 4
 
 
 # Steel in OpenCV's 8-bit Lab: grey (a, b near 128) and neither black nor a white highlight's full glare.
@@ -169,6 +167,5 @@ def rod_axis_mask(geometry: RodGeometry, projection: np.ndarray, distort, image_
                                        np.column_stack([xs, np.full_like(xs, y), np.full_like(xs, geometry.axis_height)]))
         if np.any(depth <= 0):
             continue
-        scale = float(1 << _AXIS_SUBPIXEL_BITS)
-        cv2.polylines(mask, [np.round(pixels * scale).astype(np.int32)], False, 255, 1, cv2.LINE_8, _AXIS_SUBPIXEL_BITS)
+        draw_polyline(mask, pixels)
     return mask

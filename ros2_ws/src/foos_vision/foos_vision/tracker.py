@@ -213,15 +213,14 @@ class BallTracker:
             self._update_region(bgr.shape[1], bgr.shape[0])
             if moved or self._rod_pixels is None:
                 self._place_rods(bgr)
+            else:
+                self._cut_rods_from_region()  # the same rods in a field region redrawn by this fit
             if moved or self._felt_ab is None:
                 # The felt is most of the field: its median colour (Lab a, b) tells bare felt from everything else.
                 field = cv2.cvtColor(np.ascontiguousarray(bgr[::4, ::4]), cv2.COLOR_BGR2Lab)[self._region[::4, ::4] > 0]
                 self._felt_ab = (float(np.median(field[:, 1])), float(np.median(field[:, 2])))
         elif self._rods_unseen:
             self._place_rods(bgr)  # a rod not seen on its steel (a hand over it then) is looked for at every tag fit
-        if self._masker is not None:
-            core = cv2.erode(self._rod_pixels, np.ones((3, 3), np.uint8))
-            self._region_less_rods = cv2.bitwise_and(self._region, cv2.bitwise_not(core))
 
     def _place_rods(self, bgr: np.ndarray) -> None:
         """The rods' image and axes, each rod placed on the steel seen in this frame (12-20 ms)."""
@@ -230,6 +229,13 @@ class BallTracker:
         self._rods_unseen = bool(np.any(np.isnan(shifts)))
         self._rod_pixels = rod_mask(self._rods, self._projection, self.lens.distort, size, shifts)
         self._rod_axes = rod_axis_mask(self._rods, self._projection, self.lens.distort, size, shifts)
+        self._cut_rods_from_region()
+
+    def _cut_rods_from_region(self) -> None:
+        """The field less the rods less a pixel all round, searched with the figure mask."""
+        if self._masker is not None:
+            core = cv2.erode(self._rod_pixels, np.ones((3, 3), np.uint8))
+            self._region_less_rods = cv2.bitwise_and(self._region, cv2.bitwise_not(core))
 
     def _pixels_moved(self, old: PlaneMapping, new: PlaneMapping) -> float:
         """How far (px) the field's corners move from one homography to the other."""
@@ -307,8 +313,12 @@ class BallTracker:
         the ball is coloured and every rod was found on its steel, so a blob over a rod (a figure's head,
         `_covers_rod`) is dropped. (A figure's legs and feet are not, but on the 21 coloured check videos without
         the mask the relaxed rules added no false detection.)"""
-        return self.figures_masked or (self._rod_axes is not None and not self._rods_unseen
-                                       and self.colour.hue_lo is not None)
+        return self.figures_masked or (self._rods_tell_figures and not self._rods_unseen)
+
+    @property
+    def _rods_tell_figures(self) -> bool:
+        """The rods are placed and the ball is coloured: what covers a rod in (nearly) its colour is a figure."""
+        return self._rod_axes is not None and self.colour.hue_lo is not None
 
     def figure_mask(self, joints: np.ndarray) -> Optional[np.ndarray]:
         """The figures' footprint (uint8, 255 under a figure) once the tags are found, for drawing."""
@@ -596,13 +606,11 @@ class BallTracker:
     def _covers_rod(self, bgr: np.ndarray, c: Candidate) -> bool:
         """The blob lies over a rod's axis, in the ball's colour: a figure of that colour (or anything else above
         the rods), not the ball, which the rods are always in front of."""
-        if self._rod_axes is None or self.colour.hue_lo is None:
+        if not self._rods_tell_figures:
             return False
         radius = self._radius_at_pixel(c.u, c.v)
         reach = ROD_COVER_RADIUS * radius
-        h, w = self._rod_axes.shape
-        x0, y0 = max(0, int(c.u - reach)), max(0, int(c.v - reach))
-        x1, y1 = min(w, int(c.u + reach) + 2), min(h, int(c.v + reach) + 2)
+        x0, y0, x1, y1 = self._window_around(c, reach)
         ys, xs = np.nonzero(self._rod_axes[y0:y1, x0:x1])
         xs, ys = xs + x0, ys + y0
         squared = (xs - c.u) ** 2 + (ys - c.v) ** 2
@@ -614,6 +622,12 @@ class BallTracker:
         inside &= squared <= squared[inside].min() + (ROD_COVER_ALONG * radius) ** 2
         coloured = self._near_ball_colour(np.ascontiguousarray(bgr[ys[inside], xs[inside]][:, None, :]))
         return bool(np.count_nonzero(coloured) >= max(2, ROD_COVER_SHARE * len(coloured)))
+
+    def _window_around(self, c: Candidate, reach: float) -> tuple[int, int, int, int]:
+        """(x0, y0, x1, y1) of the frame's pixels within reach of the candidate's centre, clipped to the frame."""
+        h, w = self._rod_axes.shape
+        return (max(0, int(c.u - reach)), max(0, int(c.v - reach)),
+                min(w, int(c.u + reach) + 2), min(h, int(c.v + reach) + 2))
 
     def _near_ball_colour(self, bgr: np.ndarray) -> np.ndarray:
         """Pixels of a colour near the ball's and not grey like the steel (bool, the image's shape less its
@@ -627,18 +641,15 @@ class BallTracker:
     def _joined_to_a_covered_rod(self, bgr: np.ndarray, c: Candidate) -> bool:
         """Pixels of (nearly) the ball's colour join the blob to a stretch of rod axis they cover: the blob is part
         of a figure of that colour (the end of a kicked leg, a foot), or touches one."""
-        if self._rod_axes is None or self.colour.hue_lo is None:
+        if not self._rods_tell_figures:
             return False
-        reach = FIGURE_REACH * self._radius_at_pixel(c.u, c.v)
-        h, w = self._rod_axes.shape
-        x0, y0 = max(0, int(c.u - reach)), max(0, int(c.v - reach))
-        x1, y1 = min(w, int(c.u + reach) + 2), min(h, int(c.v + reach) + 2)
+        radius = self._radius_at_pixel(c.u, c.v)
+        x0, y0, x1, y1 = self._window_around(c, FIGURE_REACH * radius)
         axes = self._rod_axes[y0:y1, x0:x1] > 0
         if not np.any(axes):
             return False
         loose = self._near_ball_colour(np.ascontiguousarray(bgr[y0:y1, x0:x1])).astype(np.uint8)
         _, labels = cv2.connectedComponents(loose, connectivity=8)
-        radius = self._radius_at_pixel(c.u, c.v)
         ys, xs = np.nonzero(labels)
         own = labels[ys, xs][(xs + x0 - c.u) ** 2 + (ys + y0 - c.v) ** 2 <= radius * radius]
         if len(own) == 0:
