@@ -55,6 +55,8 @@ class Case:
     fisheye: bool = False  # the camera config is a fisheye: tracked with its intrinsics, and (+calib row) with
     # the intrinsics calibrate_camera --fisheye finds on checkerboards drawn through the same lens
     hands: bool = False  # a player's hand picks the ball up (render_video --hands); the tracker is not told
+    home: str = ""  # the figures' colours (render_video --home-color/--away-color); "": foos_sim's red and blue
+    away: str = ""
 
 
 CASES = (
@@ -85,6 +87,7 @@ def render_case(case: Case, out: Path, duration: float, seed: int, reuse: bool =
         command += ["--distortion=" + ",".join(str(v) for v in case.distortion)]
     if case.hands:
         command += ["--hands"]
+    command += [f"--{team}-color={colour}" for team, colour in (("home", case.home), ("away", case.away)) if colour]
     if reuse and video.exists() and Path(f"{out / case.name}.truth.csv").exists() \
             and Path(f"{out / case.name}.joints.csv").exists():
         return video

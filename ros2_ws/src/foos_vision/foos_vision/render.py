@@ -18,7 +18,8 @@ import numpy as np
 from .camera import CameraConfig
 from .hands import AWAY_Z, HAND_BODY, HandPose
 from .markers import MarkerLayout
-from .scene import BALL_COLOURS, CAMERA_NAME, build_scene_model, hide_cover, set_rod_finish, set_ball_colour, set_lighting
+from .scene import BALL_COLOURS, CAMERA_NAME, build_scene_model, hide_cover, set_rod_finish, set_ball_colour, set_lighting, \
+    set_team_colour
 
 HIDDEN_Z = -2.0  # where a ball "picked up" by a hand is put for rendering: below the room floor
 
@@ -32,6 +33,8 @@ class RenderOptions:
     noise: float = 1.5  # sensor noise, std in 8-bit levels
     lighting: float = 1.0  # scale of the scene lights
     visibility: bool = False  # also measure the visible fraction of the ball (a segmentation render per frame)
+    home_colour: Optional[tuple[float, float, float]] = None  # the figures' RGB; None: foos_sim's red
+    away_colour: Optional[tuple[float, float, float]] = None  # None: foos_sim's blue
     hands: bool = False  # the scene has a player's hand (foos_vision.hands), posed per frame by render_frames' hand_at
     seed: int = 0
 
@@ -85,6 +88,9 @@ class SceneRenderer:
         hide_cover(self.model)
         set_rod_finish(self.model)
         set_ball_colour(self.model, options.ball_colour)
+        for team, rgb in (("home", options.home_colour), ("away", options.away_colour)):
+            if rgb is not None:
+                set_team_colour(self.model, team, rgb)
         set_lighting(self.model, options.lighting)
         self.data = mujoco.MjData(self.model)
         ideal = self.ideal_camera

@@ -13,7 +13,7 @@ from .camera import load_camera
 from .cli_util import run_cli
 from .errors import VisionError
 from .markers import DEFAULT_MARKERS_FILE, load_markers
-from .scene import BALL_COLOURS
+from .scene import BALL_COLOURS, FIGURE_COLOURS
 
 DESCRIPTION = """\
 Render a video of the simulated table (or of a bag of ball and rod states) as a camera would film it,
@@ -32,6 +32,7 @@ Examples:
   render_video out/replay.mp4 --bag recorded_bag --camera overhead
   render_video out/clip.mp4 --camera fisheye --ball-color yellow --blur 4   (1080p, 25 fps, fisheye)
   render_video out/hands.mp4 --ball-color orange --hide-every 1 --hide-for 0.3 --hands   (a hand picks it up)
+  render_video out/same.mp4 --ball-color yellow --home-color yellow --away-color black   (figures of its colour)
   render_video out/fish.mp4 --fps 60 --fovy 80 --fisheye 0.05,-0.02,0.01,-0.005
 
 A lens is applied to an ideal pinhole render by remapping. For --fisheye (OpenCV's cv2.fisheye
@@ -42,16 +43,20 @@ of a very wide lens) are black, like a real fisheye's vignette. OUT.camera.yaml'
 """
 
 
-def parse_colour(text: str) -> tuple[float, float, float]:
-    if text in BALL_COLOURS:
-        return BALL_COLOURS[text]
+def parse_colour(text: str, names: dict = BALL_COLOURS) -> tuple[float, float, float]:
+    if text in names:
+        return names[text]
     try:
         rgb = tuple(float(v) for v in text.split(","))
     except ValueError:
         rgb = ()
     if len(rgb) != 3 or not all(0 <= v <= 1 for v in rgb):
-        raise argparse.ArgumentTypeError(f"`{text}` is not one of {sorted(BALL_COLOURS)} nor R,G,B in [0, 1]")
+        raise argparse.ArgumentTypeError(f"`{text}` is not one of {sorted(names)} nor R,G,B in [0, 1]")
     return rgb
+
+
+def parse_figure_colour(text: str) -> tuple[float, float, float]:
+    return parse_colour(text, FIGURE_COLOURS)
 
 
 def parse_floats(text: str) -> tuple[float, ...]:
@@ -97,6 +102,9 @@ def build_parser() -> argparse.ArgumentParser:
     look = p.add_argument_group("realism")
     look.add_argument("--ball-color", type=parse_colour, default=BALL_COLOURS["white"],
                       help=f"{', '.join(BALL_COLOURS)} or R,G,B in [0, 1] (default white)")
+    look.add_argument("--home-color", type=parse_figure_colour,
+                      help=f"the home figures' colour: {', '.join(FIGURE_COLOURS)} or R,G,B (default foos_sim's red)")
+    look.add_argument("--away-color", type=parse_figure_colour, help="the away figures' colour (default foos_sim's blue)")
     look.add_argument("--blur", type=int, default=1, help="sub-frames averaged per frame for motion blur (default 1 = none)")
     look.add_argument("--exposure", type=float, default=0.5, help="shutter open fraction of the frame interval (default 0.5)")
     look.add_argument("--noise", type=float, default=1.5, help="sensor noise std, 8-bit levels (default 1.5)")
@@ -159,7 +167,7 @@ def render_video(args: argparse.Namespace) -> int:
     n_frames = int(math.floor(duration * camera.fps)) + 1
     options = RenderOptions(camera=camera, ball_colour=args.ball_color, subframes=args.blur, exposure=args.exposure,
                             noise=args.noise, lighting=args.lighting, visibility=args.visibility, seed=args.seed,
-                            hands=args.hands)
+                            hands=args.hands, home_colour=args.home_color, away_colour=args.away_color)
     hand_at = HandScript(rollout).pose if args.hands else None
     renderer = SceneRenderer(build_mjcf(params=params), layout, options)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -91,6 +91,11 @@ def set_ball_colour(model: mujoco.MjModel, rgb: tuple[float, float, float]) -> N
     model.mat_rgba[model.material("ball").id, :3] = rgb
 
 
+def set_team_colour(model: mujoco.MjModel, team: str, rgb: tuple[float, float, float]) -> None:
+    """Real tables come with other figure colours; a team of the ball's colour is the hard case for a tracker."""
+    model.mat_rgba[model.material(team).id, :3] = rgb
+
+
 def hide_cover(model: mujoco.MjModel) -> None:
     """The clear cover renders as a tinted sheet; a real camera sees through a clean one."""
     model.geom_rgba[model.geom("cover").id, 3] = 0.0
@@ -114,3 +119,5 @@ BALL_COLOURS = {
     "orange": (0.98, 0.45, 0.05),
     "red": (0.85, 0.08, 0.08),
 }
+# What --home-color and --away-color take by name, besides the ball colours.
+FIGURE_COLOURS = {**BALL_COLOURS, "blue": (0.10, 0.20, 0.80), "black": (0.08, 0.08, 0.08)}
