@@ -68,6 +68,10 @@ ROD_COVER_RADIUS, ROD_COVER_ALONG, ROD_COVER_SHARE, ROD_COVER_AB = 1.3, 0.5, 0.5
 # Radii from a partial blob within which pixels of (nearly) its colour joining it to a covered rod's axis make it
 # part of a figure: a kicked leg reaches its foot's end 78 mm (4.5 radii) from the axis.
 FIGURE_REACH = 5.0
+# Radii along the rod between such a blob's centre and the middle of the covered stretch it is joined to, within
+# which it is a figure's leg or foot (straight across the rod from its body); a ball touching a figure along the
+# rod lies at least its radius and the figure's half width (1.7 radii for a 24 mm body) from the body's middle.
+FIGURE_ALONG = 0.8
 REFIT_MOVED_PX = 0.5  # a tag refit that moves the field's corners less than this keeps the rods' placement
 EDGE_SAMPLES = 40  # whole balls in view whose colour masks give the mask's edge radius (BallDetector.edge_scale)
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
@@ -477,26 +481,29 @@ class BallTracker:
         return min_ratio <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85 and c.spill <= MAX_SPILL
 
     def _solid_elsewhere(self, bgr: np.ndarray, tracked: Candidate):
-        """A whole ball away from the tracked blob, found with the shading-tolerant colour (or nothing)."""
+        """A whole ball away from the tracked blob, found with the shading-tolerant colour (or nothing); not a
+        figure's legs (_starts_track)."""
         radius = self._radius_at_pixel(tracked.u, tracked.v)
         loose = [c for c in self._search_field(bgr) if c.area_ratio >= 0.4 and c.roundness >= 0.6
                  and math.hypot(c.u - tracked.u, c.v - tracked.v) >= 3 * radius and not self._fixture(c, count=False)]
         for c in sorted(loose, key=lambda c: -c.score)[:3]:
             r = self._radius_at_pixel(c.u, c.v)
             found = self._search_window(bgr, np.array([c.u, c.v]), 2 * r + 3, 2 * r + 3, use_band=True)
-            if found[0] is not None and self._solid(found[0]) and found[0].score >= tracked.score + 0.15:
+            if (found[0] is not None and self._solid(found[0]) and found[0].score >= tracked.score + 0.15
+                    and not self._joined_to_a_covered_rod(bgr, found[0], strict=True)):
                 return found
         return None, None, None
 
-    def _starts_track(self, c: Candidate) -> bool:
+    def _starts_track(self, bgr: np.ndarray, c: Candidate) -> bool:
         """Confident, and not merged with something of its colour: the end of a figure's bar is a ball-sized,
-        roundish blob too, but it goes on past the ball's outline."""
-        return self._confident(c) and c.spill <= MAX_SPILL
+        roundish blob too, but it goes on past the ball's outline. Nor joined to a figure of its colour: seen
+        from the side, a figure's legs below its rod are a round blob of the ball's size."""
+        return self._confident(c) and c.spill <= MAX_SPILL and not self._joined_to_a_covered_rod(bgr, c, strict=True)
 
     def _best_on_field(self, bgr: np.ndarray):
         candidates = self._search_field(bgr)
         if self._search_scale == 1.0:
-            good = [c for c in candidates if self._starts_track(c) and not self._fixture(c)]
+            good = [c for c in candidates if self._starts_track(bgr, c) and not self._fixture(c)]
             if not good:
                 self._partials_now = [(c, self._field_lab, self._roi) for c in candidates
                                       if self._partial_ball(bgr, c) and not self._fixture(c, count=False)]
@@ -508,7 +515,7 @@ class BallTracker:
         for c in sorted(near_misses, key=lambda c: -c.score)[:3]:
             radius = self._radius_at_pixel(c.u, c.v)
             found = self._search_window(bgr, np.array([c.u, c.v]), 2 * radius + 3, 2 * radius + 3)
-            if found[0] is not None and self._starts_track(found[0]):
+            if found[0] is not None and self._starts_track(bgr, found[0]):
                 return found
             if found[0] is not None and self._partial_ball(bgr, found[0]):
                 self._partials_now.append(found)
@@ -636,11 +643,19 @@ class BallTracker:
         model = self.colour
         near = ((np.abs(ab[..., 0] - model.a) <= ROD_COVER_AB * model.ab_tol)
                 & (np.abs(ab[..., 1] - model.b) <= ROD_COVER_AB * model.ab_tol))
+        if self._felt_ab is not None:
+            # The wider box reaches the green felt's lighter threads from a yellow ball: nearer the felt is felt.
+            a, b = ab[..., 0].astype(np.float32), ab[..., 1].astype(np.float32)
+            to_ball = (a - model.a) ** 2 + (b - model.b) ** 2
+            to_felt = (a - self._felt_ab[0]) ** 2 + (b - self._felt_ab[1]) ** 2
+            near &= to_ball < to_felt
         return near & (np.maximum(np.abs(ab[..., 0] - 128), np.abs(ab[..., 1] - 128)) > 1.5 * STEEL_AB_TOL)
 
-    def _joined_to_a_covered_rod(self, bgr: np.ndarray, c: Candidate) -> bool:
+    def _joined_to_a_covered_rod(self, bgr: np.ndarray, c: Candidate, strict: bool = False) -> bool:
         """Pixels of (nearly) the ball's colour join the blob to a stretch of rod axis they cover: the blob is part
-        of a figure of that colour (the end of a kicked leg, a foot), or touches one."""
+        of a figure of that colour (the end of a kicked leg, a foot), or touches one. strict: pixels of the ball's
+        own colour model only; a whole ball in front of a red figure's foot is joined to it in nearly an orange
+        ball's colour, while an orange figure's legs are one piece of the ball's colour with its body."""
         if not self._rods_tell_figures:
             return False
         radius = self._radius_at_pixel(c.u, c.v)
@@ -648,14 +663,33 @@ class BallTracker:
         axes = self._rod_axes[y0:y1, x0:x1] > 0
         if not np.any(axes):
             return False
-        loose = self._near_ball_colour(np.ascontiguousarray(bgr[y0:y1, x0:x1])).astype(np.uint8)
-        _, labels = cv2.connectedComponents(loose, connectivity=8)
+        window = np.ascontiguousarray(bgr[y0:y1, x0:x1])
+        if strict:
+            coloured = (self.colour.mask(cv2.cvtColor(window, cv2.COLOR_BGR2Lab), window) > 0).astype(np.uint8)
+        else:
+            coloured = self._near_ball_colour(window).astype(np.uint8)
+        _, labels = cv2.connectedComponents(coloured, connectivity=8)
         ys, xs = np.nonzero(labels)
         own = labels[ys, xs][(xs + x0 - c.u) ** 2 + (ys + y0 - c.v) ** 2 <= radius * radius]
         if len(own) == 0:
             return False
         blob = np.bincount(own).argmax()
-        return bool(np.count_nonzero(labels[axes] == blob) >= 2)
+        # A figure's leg or foot lies straight across its rod from the body that covers the axis; a ball beside a
+        # figure along the rod is a ball. So the middle of the covered stretch it is joined to must be in line.
+        n_lines, lines = cv2.connectedComponents(axes.astype(np.uint8), connectivity=8)
+        ay, ax = np.nonzero(axes)
+        offsets = np.column_stack([ax + x0 - c.u, ay + y0 - c.v]).astype(float)
+        line, joined = lines[ay, ax], labels[ay, ax] == blob
+        for rod in np.unique(line[joined]):
+            on_rod = line == rod
+            if np.count_nonzero(joined & on_rod) < 2:
+                continue
+            # The rod's direction here: the principal axis of its pixels in the window.
+            spread = np.cov(offsets[on_rod].T)
+            direction = np.linalg.eigh(spread)[1][:, -1]
+            if abs(float(np.mean(offsets[joined & on_rod] @ direction))) <= FIGURE_ALONG * radius:
+                return True
+        return False
 
     def _fixture(self, c: Candidate, count: bool = True) -> bool:
         """A ball-like blob that sits at the same pixel frame after frame, while no ball is tracked, is part of
@@ -696,12 +730,14 @@ class BallTracker:
             # also empties its inside, so this holds only while coasting.)
             if coast_frames >= 2 and found.fill < MIN_PARTIAL_FILL:
                 return None, lab, roi
-            # Nor may a track that has lost the ball go on with the end of a kicked figure's leg, joined in
-            # (nearly) its colour to the rod it covers (the hands video: the leg beside the hand that had just
-            # picked the ball up). Not before the ball is lost: a ball touching a figure of its colour, half
-            # hidden, is that too (applied in every frame: recall -1 to -7 points in six red and orange videos).
-            if coast_frames >= 1 and self._joined_to_a_covered_rod(bgr, found):
-                return None, lab, roi
+        # Nor may a track that has lost the ball go on with a figure of its colour, joined in (nearly) that
+        # colour to the rod it covers: the end of a kicked leg (the hands video: the leg beside the hand that had
+        # just picked the ball up), or, seen from the side, the legs below the rod. Not before the ball is lost:
+        # a ball touching a figure of its colour is that too (applied in every frame: recall -1 to -7 points in
+        # six red and orange videos).
+        if found is not None and coast_frames >= 1 and self._joined_to_a_covered_rod(bgr, found,
+                                                                                  strict=self._confident(found)):
+            return None, lab, roi
         return found, lab, roi
 
     # --- colour -------------------------------------------------------------------------------------
