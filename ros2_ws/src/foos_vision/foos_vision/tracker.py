@@ -65,8 +65,8 @@ ROD_LINE_Y_TOL, ROD_LINE_MIN_DX = 0.004, 0.010
 # point; covered when ROD_COVER_SHARE of it is within ROD_COVER_AB times the colour model's a/b tolerance.
 # Only for coloured balls: a white ball is as grey as steel's highlights.
 ROD_COVER_RADIUS, ROD_COVER_ALONG, ROD_COVER_SHARE, ROD_COVER_AB = 1.3, 0.5, 0.5, 1.6
-# Radii from a partial blob within which pixels of (nearly) its colour joining it to a covered rod's axis make it
-# part of a figure: a kicked leg reaches its foot's end 78 mm (4.5 radii) from the axis.
+# Radii from a blob within which pixels of (nearly) its colour joining it to a covered rod's axis make it part of a
+# figure: a kicked leg reaches its foot's end 78 mm (4.5 radii) from the axis.
 FIGURE_REACH = 5.0
 # Radii along the rod between such a blob's centre and the middle of the covered stretch it is joined to, within
 # which it is a figure's leg or foot (straight across the rod from its body); a ball touching a figure along the
@@ -315,8 +315,8 @@ class BallTracker:
     def figures_guarded(self) -> bool:
         """A figure of the ball's colour cannot pass for the ball in this frame: the figures are masked out, or
         the ball is coloured and every rod was found on its steel, so a blob over a rod (a figure's head,
-        `_covers_rod`) is dropped. (A figure's legs and feet are not, but on the 21 coloured check videos without
-        the mask the relaxed rules added no false detection.)"""
+        `_covers_rod`) is dropped. (A figure's legs and feet are not dropped, but joined to its body over the rod
+        they start no track, `_starts_track`.)"""
         return self.figures_masked or (self._rods_tell_figures and not self._rods_unseen)
 
     @property
