@@ -5,7 +5,7 @@ from __future__ import annotations
 import subprocess
 
 # This area's ROS_DOMAIN_ID range is 60-79; each DDS test takes its own.
-DOMAIN_IDS = {"dds_game": 60, "policy_node_errors": 61, "policy_node_stale": 62}
+DOMAIN_IDS = {"dds_game": 60, "policy_node_errors": 61, "policy_node_stale": 62, "policy_node_ctrl_c": 63}
 
 
 def one_line_error(proc: subprocess.CompletedProcess) -> str:

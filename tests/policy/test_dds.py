@@ -101,6 +101,37 @@ def test_policy_node_without_inputs_holds_the_rods_warns_and_stops_cleanly(ros_e
     assert code == 0 and "Traceback" not in text
 
 
+@pytest.mark.timeout(120)
+def test_policy_node_stopped_with_ctrl_c_sends_a_last_zero_command(ros_env, tmp_path):
+    """Ctrl-C stops the drives at once: the last command on the topic is all zeros, and the exit is clean.
+    (With rclpy's own handler the context was already shut down when the zero command was due.)"""
+    env = dict(ros_env, ROS_DOMAIN_ID=str(DOMAIN_IDS["policy_node_ctrl_c"]))
+    bag = tmp_path / "commands"
+    procs = {}
+    try:
+        procs["recorder"] = _start(env, tmp_path, "recorder", "ros2", "bag", "record", "-o", str(bag), "/home/rods/command")
+        procs["sim"] = _start(env, tmp_path, "sim", "ros2", "run", "foos_sim", "sim_node", "--ros-args", "-p", "serve:=random")
+        procs["home"] = _start(env, tmp_path, "home", "ros2", "run", "foos_policy", "policy_node", "--ros-args",
+                               "-p", "policy:=random", "-p", "team:=home")
+        deadline = time.time() + 60
+        while time.time() < deadline and "inference latency" not in (tmp_path / "home.log").read_text():
+            assert procs["home"].poll() is None, (tmp_path / "home.log").read_text()
+            time.sleep(0.5)
+        home_code = _stop(procs.pop("home"))
+        time.sleep(1.0)  # the recorder takes the last command before it stops
+    finally:
+        codes = {name: _stop(proc) for name, proc in procs.items()}
+    log = (tmp_path / "home.log").read_text()
+    assert home_code == 0 and "Traceback" not in log, log[-2000:]
+    assert codes["recorder"] == 0, codes
+
+    from foos_bag.bag_io import read_commands
+
+    commands = read_commands(bag, "home").values
+    assert len(commands) > 50 and abs(commands[:-1]).max() > 1.0, commands[-5:]
+    assert abs(commands[-1]).max() == 0.0, commands[-5:]
+
+
 @pytest.mark.timeout(60)
 def test_policy_node_refuses_a_bad_policy_or_team(run_cli):
     line = one_line_error(run_cli("policy_node", "--ros-args", "-p", "policy:=no_such_policy",

@@ -8,7 +8,6 @@ is written and the bag is closed; a SIGKILL leaves a bag that `ros2 bag reindex`
 from __future__ import annotations
 
 import re
-import signal
 import sys
 import time
 from dataclasses import dataclass, field
@@ -19,10 +18,10 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.signals import SignalHandlerOptions
 
 from foos_bag.bag_io import BagError, BagWriter
 from foos_bag.ros_types import message_class, subscription_qos, to_bag_qos
+from foos_sim import node_signals
 
 
 @dataclass
@@ -187,18 +186,6 @@ class Recorder(Node):
         )
 
 
-class _StopFlag:
-    """SIGINT/SIGTERM set a flag; the spin loop checks it, so the bag is always closed by us, in order."""
-
-    def __init__(self) -> None:
-        self.stop = False
-        signal.signal(signal.SIGINT, self._handler)
-        signal.signal(signal.SIGTERM, self._handler)
-
-    def _handler(self, signum, _frame) -> None:
-        self.stop = True
-
-
 def make_executor(kind: str):
     if kind == "events":
         from rclpy.experimental import EventsExecutor
@@ -211,15 +198,14 @@ def make_executor(kind: str):
 
 def run(config: RecordConfig | None, args: list[str] | None = None) -> int:
     """Record until SIGINT/SIGTERM. Returns the exit code; errors are one line on stderr."""
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    flag = _StopFlag()
+    # The bag is always closed by us, in order: a signal only sets the flag that the spin loop checks.
+    stop = node_signals.init(args)
     recorder = None
     try:
         recorder = Recorder(config)
         executor = make_executor(recorder.config.executor)
         executor.add_node(recorder)
-        while not flag.stop:
-            executor.spin_once(timeout_sec=0.05)
+        node_signals.spin_until_stopped(executor, stop)
         recorder.drain(executor)
         recorder.finish()
         return 0
@@ -233,7 +219,7 @@ def run(config: RecordConfig | None, args: list[str] | None = None) -> int:
         if recorder is not None:
             recorder.writer.close()  # no-op after finish(); on any error it keeps what was recorded
             recorder.destroy_node()
-        rclpy.try_shutdown()  # a signal may already have shut the context down
+        rclpy.try_shutdown()
 
 
 def main(args: list[str] | None = None) -> None:

@@ -15,13 +15,13 @@ import sys
 import rclpy
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy._rclpy_pybind11 import RCLError
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
+from foos_sim import node_signals
 from foos_sim.names import TEAMS
 from foos_sim.simulation import TableSimulation
 
@@ -96,29 +96,21 @@ class PolicyNode(Node):
                 f"p95 {stats['p95_ms']:.2f} ms, max {stats['max_ms']:.2f} ms")
 
     def stop_rods(self) -> None:
-        """A last zero command on the way out. Ctrl-C shuts the context down from rclpy's signal handler,
-        which can happen between any check and the publish; then the table's own watchdog stops the rods."""
-        if not rclpy.ok():
-            return
-        try:
+        """A last zero command on the way out, so the drives stop now rather than at the table's watchdog."""
+        if rclpy.ok():
             self.command_pub.publish(Float64MultiArray(data=[0.0] * 8))
-        except RCLError:
-            pass
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
+    stop = node_signals.init(args)
     node = None
     try:
         node = PolicyNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        node_signals.spin_until_stopped(executor, stop)
+    except KeyboardInterrupt:  # a second Ctrl-C
         pass
-    except RCLError:
-        # Ctrl-C's handler shuts the context down from under a callback that was publishing: that is the
-        # end of the run, not an error. An RCLError while the context is still up is one.
-        if rclpy.ok():
-            raise
     except (PolicyError, ValueError, TypeError) as error:
         print(f"policy_node: {error}".splitlines()[0], file=sys.stderr)
         return 2

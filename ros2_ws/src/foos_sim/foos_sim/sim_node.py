@@ -21,15 +21,16 @@ from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy._rclpy_pybind11 import RCLError
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
+from . import node_signals
 from .names import JOINT_NAMES, TEAMS
+from .node_signals import StopSignal
 from .sim_runner import Detection, Goal, RunnerConfig, SimRunner, StateSample
 from .simulation import CommandError, TableSimulation
 from .table_params import ParamsError
@@ -171,20 +172,10 @@ class SimNode(Node):
         self.state_pub.publish(odom)
 
     # --- the loop ------------------------------------------------------------------------------
-    def run(self, executor: SingleThreadedExecutor) -> None:
+    def run(self, executor: SingleThreadedExecutor, stop: StopSignal) -> None:
         """Advance event by event; pace against the wall clock unless running as fast as possible."""
-        try:
-            self._run(executor)
-        except Exception:
-            # A signal can shut the context down between rclpy.ok() and a publish or a wait: that is a
-            # shutdown, not an error.
-            if rclpy.ok():
-                raise
-            raise ExternalShutdownException() from None
-
-    def _run(self, executor: SingleThreadedExecutor) -> None:
         wall_start, sim_start = time.monotonic(), self.runner.time
-        while rclpy.ok():
+        while rclpy.ok() and not stop.requested:
             for event in self.runner.advance():
                 self.publish(event)
             if self.real_time_factor == 0:
@@ -204,20 +195,15 @@ class SimNode(Node):
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
+    stop = node_signals.init(args)
     node = None
     try:
         node = SimNode()
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        node.run(executor)
-    except (KeyboardInterrupt, ExternalShutdownException):
+        node.run(executor, stop)
+    except KeyboardInterrupt:  # a second Ctrl-C
         pass
-    except RCLError:
-        # Ctrl-C's handler shuts the context down from under a callback that was publishing: that is the
-        # end of the run, not an error. An RCLError while the context is still up is one.
-        if rclpy.ok():
-            raise
     except (ParamsError, ValueError, TypeError, InvalidParameterTypeException, InvalidParameterValueException) as error:
         print(f"sim_node: {error}", file=sys.stderr)
         return 2

@@ -20,11 +20,12 @@ import numpy as np
 import rclpy
 from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
-from rclpy.executors import ExternalShutdownException
-from rclpy._rclpy_pybind11 import RCLError
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, JointState
+
+from foos_sim import node_signals
 
 from .camera import load_intrinsics
 from .cli_util import quiet_threads
@@ -128,19 +129,16 @@ class TrackerNode(Node):
 
 def main(args=None) -> None:
     quiet_threads()
-    rclpy.init(args=args)
+    stop = node_signals.init(args)
     node = None
     code = 0
     try:
         node = TrackerNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        node_signals.spin_until_stopped(executor, stop)
+    except KeyboardInterrupt:  # a second Ctrl-C
         pass
-    except RCLError:
-        # Ctrl-C's handler shuts the context down from under a callback that was publishing: that is the
-        # end of the run, not an error. An RCLError while the context is still up is one.
-        if rclpy.ok():
-            raise
     except (VisionError, ValueError, OSError) as error:
         print(f"tracker_node: error: {error}", file=sys.stderr)
         code = 2

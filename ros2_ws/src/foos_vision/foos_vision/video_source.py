@@ -12,9 +12,10 @@ import sys
 import time
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import Image
+
+from foos_sim import node_signals
 
 from .errors import VisionError
 from .ros_common import seconds_to_stamp
@@ -22,8 +23,9 @@ from .video_io import VideoReader
 
 
 class VideoSource(Node):
-    def __init__(self):
+    def __init__(self, stop: node_signals.StopSignal):
         super().__init__("video_source")
+        self.stop = stop
         self.declare_parameter("source", "")  # a video file, or a device index such as "0"
         self.declare_parameter("fps", 0.0)  # 0 = the container's frame rate
         self.declare_parameter("start_time", 0.0)  # s added to file frame times
@@ -53,21 +55,24 @@ class VideoSource(Node):
 
     def wait_for_consumers(self) -> None:
         deadline = time.monotonic() + self.wait_timeout
-        while rclpy.ok() and self.publisher.get_subscription_count() < self.wait_for_subscribers:
+        while self.running() and self.publisher.get_subscription_count() < self.wait_for_subscribers:
             if time.monotonic() > deadline:
                 raise VisionError(f"no {self.wait_for_subscribers} subscriber(s) on /camera/image_raw within "
                                   f"{self.wait_timeout:g} s (wait_for_subscribers)")
             rclpy.spin_once(self, timeout_sec=0.05)
 
+    def running(self) -> bool:
+        return rclpy.ok() and not self.stop.requested
+
     def run(self) -> None:
         """Publish every frame at its time; returns at the end of the file (unless looping)."""
         self.wait_for_consumers()
         offset = 0.0
-        while rclpy.ok():
+        while self.running():
             wall_start = time.monotonic()
             last_t = 0.0
             for index, t, frame in self.reader.frames():
-                if not rclpy.ok():
+                if not self.running():
                     return
                 if self.is_device:
                     stamp = self.get_clock().now().nanoseconds * 1e-9
@@ -78,12 +83,7 @@ class VideoSource(Node):
                         if delay > 0:
                             time.sleep(delay)
                 last_t = t
-                try:
-                    self.publisher.publish(self._message(frame, stamp))
-                except Exception:  # rclpy's RCLError: Ctrl-C or SIGTERM shut the context down mid-publish
-                    if rclpy.ok():
-                        raise
-                    return
+                self.publisher.publish(self._message(frame, stamp))
                 self.published += 1
             if not self.loop or self.is_device:
                 return
@@ -103,19 +103,18 @@ class VideoSource(Node):
 
 
 def main(args=None) -> None:
-    rclpy.init(args=args)
+    stop = node_signals.init(args)
     node = None
     code = 0
     try:
-        node = VideoSource()
+        node = VideoSource(stop)
         node.run()
         # Let late subscribers' reliable queues drain before the publisher goes away.
         end = time.monotonic() + 0.5
-        while rclpy.ok() and time.monotonic() < end:
+        while node.running() and time.monotonic() < end:
             rclpy.spin_once(node, timeout_sec=0.05)
-        if rclpy.ok():
-            node.get_logger().info(f"done: {node.published} frames published")
-    except (KeyboardInterrupt, ExternalShutdownException):
+        node.get_logger().info(f"{'stopped' if stop.requested else 'done'}: {node.published} frames published")
+    except KeyboardInterrupt:  # a second Ctrl-C
         pass
     except (VisionError, ValueError, OSError) as error:
         print(f"video_source: error: {error}", file=sys.stderr)
