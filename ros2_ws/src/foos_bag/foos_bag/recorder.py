@@ -198,8 +198,9 @@ def make_executor(kind: str):
 
 def run(config: RecordConfig | None, args: list[str] | None = None) -> int:
     """Record until SIGINT/SIGTERM. Returns the exit code; errors are one line on stderr."""
-    # The bag is always closed by us, in order: a signal only sets the flag that the spin loop checks.
-    stop = node_signals.init(args)
+    # The bag is always closed by us, in order: a signal, the first or a later one, only sets the flag
+    # that the spin loop checks.
+    stop = node_signals.init(args, repeat_quits=False)
     recorder = None
     try:
         recorder = Recorder(config)

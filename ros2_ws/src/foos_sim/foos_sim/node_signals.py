@@ -17,23 +17,25 @@ POLL_S = 0.05  # the longest a stop waits for a blocked spin to return
 
 
 class StopSignal:
-    """Set by SIGINT or SIGTERM. A second signal raises KeyboardInterrupt: the user wants out now."""
+    """Set by SIGINT or SIGTERM. With repeat_quits, a second signal raises KeyboardInterrupt: the user
+    wants out now. A recorder passes False: it is writing what it has, and that is not to be cut short."""
 
-    def __init__(self) -> None:
+    def __init__(self, repeat_quits: bool = True) -> None:
         self.requested = False
+        self.repeat_quits = repeat_quits
         signal.signal(signal.SIGINT, self._handle)
         signal.signal(signal.SIGTERM, self._handle)
 
     def _handle(self, _signum, _frame) -> None:
-        if self.requested:
+        if self.requested and self.repeat_quits:
             raise KeyboardInterrupt
         self.requested = True
 
 
-def init(args: list[str] | None = None) -> StopSignal:
+def init(args: list[str] | None = None, repeat_quits: bool = True) -> StopSignal:
     """rclpy.init without rclpy's signal handlers, and the flag that replaces them."""
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    return StopSignal()
+    return StopSignal(repeat_quits)
 
 
 def spin_until_stopped(executor, stop: StopSignal) -> None:
