@@ -7,6 +7,7 @@ import signal
 import subprocess
 import time
 
+import numpy as np
 import pytest
 
 from policy_test_support import DOMAIN_IDS, one_line_error
@@ -110,9 +111,11 @@ def test_policy_node_stopped_with_ctrl_c_sends_a_last_zero_command(ros_env, tmp_
     procs = {}
     try:
         procs["recorder"] = _start(env, tmp_path, "recorder", "ros2", "bag", "record", "-o", str(bag), "/home/rods/command")
-        procs["sim"] = _start(env, tmp_path, "sim", "ros2", "run", "foos_sim", "sim_node", "--ros-args", "-p", "serve:=random")
+        # on sim time, so that a sim slowed down by a loaded machine does not make the inputs stale
+        procs["sim"] = _start(env, tmp_path, "sim", "ros2", "run", "foos_sim", "sim_node", "--ros-args", "-p", "serve:=random",
+                              "-p", "publish_clock:=true")
         procs["home"] = _start(env, tmp_path, "home", "ros2", "run", "foos_policy", "policy_node", "--ros-args",
-                               "-p", "policy:=random", "-p", "team:=home")
+                               "-p", "policy:=random", "-p", "team:=home", "-p", "use_sim_time:=true")
         deadline = time.time() + 60
         while time.time() < deadline and "inference latency" not in (tmp_path / "home.log").read_text():
             assert procs["home"].poll() is None, (tmp_path / "home.log").read_text()
@@ -128,7 +131,8 @@ def test_policy_node_stopped_with_ctrl_c_sends_a_last_zero_command(ros_env, tmp_
     from foos_bag.bag_io import read_commands
 
     commands = read_commands(bag, "home").values
-    assert len(commands) > 50 and abs(commands[:-1]).max() > 1.0, commands[-5:]
+    moving = np.abs(commands).max(axis=1) > 0
+    assert len(commands) > 50 and moving.sum() > 10, (len(commands), moving.sum(), log[-1500:])
     assert abs(commands[-1]).max() == 0.0, commands[-5:]
 
 

@@ -17,6 +17,7 @@ from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.duration import Duration
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
@@ -28,6 +29,7 @@ from foos_sim.simulation import TableSimulation
 from .controller import PolicyController, StateError, ball_sample, joint_sample
 from .policies import PolicyError, make_policy
 
+STOP_ACK_TIMEOUT_S = 2.0  # Fast DDS acknowledged it within 0.01-1.05 s here
 PARAMETERS = (
     ("policy", "sac_hardened_scripted_s0", "shipped policy name, PATH.zip, or zero | random | scripted"),
     ("team", "home", "team to play: home, or away (observations and commands are mirrored)"),
@@ -96,9 +98,14 @@ class PolicyNode(Node):
                 f"p95 {stats['p95_ms']:.2f} ms, max {stats['max_ms']:.2f} ms")
 
     def stop_rods(self) -> None:
-        """A last zero command on the way out, so the drives stop now rather than at the table's watchdog."""
+        """A last zero command on the way out, so the drives stop now rather than at the table's watchdog.
+        It waits for the subscribers (the drives, a recorder) to acknowledge it: a sample still queued, or
+        lost and due to be sent again, goes out only from a publisher that still exists."""
         if rclpy.ok():
             self.command_pub.publish(Float64MultiArray(data=[0.0] * 8))
+            if not self.command_pub.wait_for_all_acked(Duration(seconds=STOP_ACK_TIMEOUT_S)):
+                self.get_logger().warning(f"the last zero command was not acknowledged within "
+                                          f"{STOP_ACK_TIMEOUT_S:g} s; the table's command watchdog stops the rods")
 
 
 def main(args=None) -> int:
