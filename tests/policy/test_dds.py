@@ -38,6 +38,14 @@ def _stop(proc, timeout=15.0) -> int:
     return proc.returncode
 
 
+def _wait_for_log(proc, log, text: str, timeout: float) -> None:
+    """Until the running process has logged text, or timeout seconds have passed."""
+    deadline = time.time() + timeout
+    while time.time() < deadline and text not in log.read_text():
+        assert proc.poll() is None, log.read_text()
+        time.sleep(0.5)
+
+
 @pytest.mark.timeout(240)
 def test_sim_node_and_policy_node_game_recorded_and_evaluated(ros_env, tmp_path):
     env = dict(ros_env, ROS_DOMAIN_ID=str(DOMAIN_IDS["dds_game"]))
@@ -90,11 +98,8 @@ def test_policy_node_without_inputs_holds_the_rods_warns_and_stops_cleanly(ros_e
     env = dict(ros_env, ROS_DOMAIN_ID=str(DOMAIN_IDS["policy_node_stale"]))
     node = _start(env, tmp_path, "lonely", "ros2", "run", "foos_policy", "policy_node", "--ros-args", "-p", "policy:=random")
     try:
-        deadline = time.time() + 30
         log = tmp_path / "lonely.log"
-        while time.time() < deadline and "holding the rods" not in log.read_text():
-            assert node.poll() is None, log.read_text()
-            time.sleep(0.5)
+        _wait_for_log(node, log, "holding the rods", 30)
     finally:
         code = _stop(node)
     text = log.read_text()
@@ -116,10 +121,7 @@ def test_policy_node_stopped_with_ctrl_c_sends_a_last_zero_command(ros_env, tmp_
                               "-p", "publish_clock:=true")
         procs["home"] = _start(env, tmp_path, "home", "ros2", "run", "foos_policy", "policy_node", "--ros-args",
                                "-p", "policy:=random", "-p", "team:=home", "-p", "use_sim_time:=true")
-        deadline = time.time() + 60
-        while time.time() < deadline and "inference latency" not in (tmp_path / "home.log").read_text():
-            assert procs["home"].poll() is None, (tmp_path / "home.log").read_text()
-            time.sleep(0.5)
+        _wait_for_log(procs["home"], tmp_path / "home.log", "inference latency", 60)
         home_code = _stop(procs.pop("home"))
         time.sleep(1.0)  # the recorder takes the last command before it stops
     finally:

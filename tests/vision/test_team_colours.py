@@ -9,6 +9,7 @@ import pytest
 
 from foos_bag.bag_io import read_ball_detections
 from foos_vision.render import read_truth
+from foos_vision.video_io import VideoReader
 from vision_helpers import render, ros2_run
 
 
@@ -18,10 +19,9 @@ def orange_pixels(bgr: np.ndarray) -> int:
 
 
 def first_frame(video) -> np.ndarray:
-    capture = cv2.VideoCapture(str(video))
-    ok, frame = capture.read()
-    capture.release()
-    assert ok
+    reader = VideoReader(str(video))
+    _, _, frame = next(reader.frames())
+    reader.close()
     return frame
 
 

@@ -30,7 +30,6 @@ from std_srvs.srv import Trigger
 
 from . import node_signals
 from .names import JOINT_NAMES, TEAMS
-from .node_signals import StopSignal
 from .sim_runner import Detection, Goal, RunnerConfig, SimRunner, StateSample
 from .simulation import CommandError, TableSimulation
 from .table_params import ParamsError
@@ -172,7 +171,7 @@ class SimNode(Node):
         self.state_pub.publish(odom)
 
     # --- the loop ------------------------------------------------------------------------------
-    def run(self, executor: SingleThreadedExecutor, stop: StopSignal) -> None:
+    def run(self, executor: SingleThreadedExecutor, stop: node_signals.StopSignal) -> None:
         """Advance event by event; pace against the wall clock unless running as fast as possible."""
         wall_start, sim_start = time.monotonic(), self.runner.time
         while rclpy.ok() and not stop.requested:

@@ -676,7 +676,7 @@ class BallTracker:
         blob = np.bincount(own).argmax()
         # A figure's leg or foot lies straight across its rod from the body that covers the axis; a ball beside a
         # figure along the rod is a ball. So the middle of the covered stretch it is joined to must be in line.
-        n_lines, lines = cv2.connectedComponents(axes.astype(np.uint8), connectivity=8)
+        _, lines = cv2.connectedComponents(axes.astype(np.uint8), connectivity=8)
         ay, ax = np.nonzero(axes)
         offsets = np.column_stack([ax + x0 - c.u, ay + y0 - c.v]).astype(float)
         line, joined = lines[ay, ax], labels[ay, ax] == blob
