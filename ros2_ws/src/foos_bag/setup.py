@@ -15,14 +15,13 @@ setup(
     zip_safe=True,
     maintainer="foos developers",
     maintainer_email="dev@foos.local",
-    description="rosbag2 record, play, info and a numpy reader (filled by the bags issue).",
+    description="rosbag2 record, play, info and numpy readers and writers of bags.",
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
             "ros2_bag = foos_bag.cli:main",
             "recorder = foos_bag.recorder:main",
             "player = foos_bag.player:main",
-            "record_sim = foos_bag.record_sim:main",
             "load_publisher = foos_bag.load_publisher:main",
         ]
     },

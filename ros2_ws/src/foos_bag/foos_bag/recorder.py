@@ -21,7 +21,7 @@ from rclpy.parameter import Parameter
 
 from foos_bag.bag_io import BagError, BagWriter
 from foos_bag.ros_types import message_class, subscription_qos, to_bag_qos
-from foos_sim import node_signals
+from foos_core import node_signals
 
 
 @dataclass

@@ -12,7 +12,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from foos_sim.names import JOINT_NAMES, TEAMS
+from foos_core.names import JOINT_NAMES, TEAMS
 
 from .observation import action_to_command, observe
 from .policies import Policy

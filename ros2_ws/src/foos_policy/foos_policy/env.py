@@ -18,7 +18,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
-from foos_sim.names import BALL_JOINT, RODS, TEAMS
+from foos_core.names import BALL_JOINT, RODS, TEAMS
 from foos_sim.simulation import TableSimulation
 
 from .observation import ACTION_LIMIT, OBS_SIZE, action_to_command, observe

@@ -37,8 +37,8 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def evaluate_bag(args) -> dict:
     from foos_bag import bag_io
-    from foos_sim.names import JOINT_NAMES
-    from foos_sim.table_params import load_params
+    from foos_core.names import JOINT_NAMES
+    from foos_core.table_params import load_params
 
     from .game import analyze_game
 
@@ -63,9 +63,10 @@ def evaluate_bag(args) -> dict:
     stats["bag"] = str(path)
     stats["goal_topic"] = "/sim/goal" in bag_io.topics(path)
     if args.compare_policy:
+        from foos_sim.simulation import TableSimulation
+
         from .game import compare_games, play_game
         from .policies import make_policy
-        from foos_sim.simulation import TableSimulation
 
         sim = TableSimulation(args.params_file)
         policy = make_policy(args.compare_policy, sim.params, sim.command_limits, seed=args.seed)
@@ -78,7 +79,7 @@ def evaluate_bag(args) -> dict:
 def main(argv=None) -> int:
     args = parse_args(argv)
     try:
-        from foos_bag.bag_io import BagError
+        from foos_bag import BagError
     except ImportError:
         print("evaluate_bag: the foos_bag package is not installed (source scripts/env.sh)", file=sys.stderr)
         return 1

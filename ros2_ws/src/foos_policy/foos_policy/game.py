@@ -18,7 +18,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from foos_sim.names import JOINT_NAMES, RODS, TEAMS
+from foos_core.names import JOINT_NAMES, RODS, TEAMS
 
 from .evaluation import wilson_interval
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from foos_sim.names import AXES, COMMAND_SIZE, JOINT_NAMES, RODS, TEAMS
+from foos_core.names import AXES, COMMAND_SIZE, JOINT_NAMES, RODS, TEAMS
 
 OBS_SIZE = 36
 ACTION_LIMIT = 20.0  # the paper's action box [-20, 20]^8

@@ -15,15 +15,15 @@ import sys
 import rclpy
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.duration import Duration
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
-from foos_sim import node_signals
-from foos_sim.names import TEAMS
+from foos_core import node_signals
+from foos_core.names import TEAMS
 from foos_sim.simulation import TableSimulation
 
 from .controller import PolicyController, StateError, ball_sample, joint_sample

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from foos_sim.names import RODS
+from foos_core.names import RODS
 
 from .observation import ACTION_LIMIT, OWN_SLOT, wrap_angle
 

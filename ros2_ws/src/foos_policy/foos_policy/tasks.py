@@ -118,7 +118,7 @@ class LiftedOpponent:
         self.policy = ScriptedPolicy(params, command_limits, active=())
 
     def initial_joint_positions(self) -> np.ndarray:
-        from foos_sim.names import JOINT_NAMES
+        from foos_core.names import JOINT_NAMES
 
         # own view +pi/2 (ScriptedPolicy.LIFTED) is -pi/2 in the table frame for the mirrored away team
         return np.array([-np.pi / 2 if n.startswith("away_") and n.endswith("_rotate") else 0.0 for n in JOINT_NAMES])

@@ -14,9 +14,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from foos_core.names import AXES, BALL_BODY, BALL_JOINT, FIELD_GEOM, RODS, TEAMS, joint_name
+from foos_core.table_params import load_params
+
 from . import effects as effects_mod
-from .names import AXES, BALL_BODY, BALL_JOINT, FIELD_GEOM, RODS, TEAMS, joint_name
-from .table_params import load_params
 
 # Solver impedance held constant over penetration, so each ball contact is a linear spring-damper and
 # its restitution does not depend on impact speed.
@@ -323,7 +324,7 @@ def ball_model_from_params(params: dict) -> mujoco.MjModel:
 
 
 def _check_actuator_order(model: mujoco.MjModel) -> None:
-    from .names import JOINT_NAMES
+    from foos_core.names import JOINT_NAMES
 
     names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i) for i in range(model.nu))
     if set(names) != set(JOINT_NAMES):

@@ -16,23 +16,24 @@ import sys
 import time
 
 import rclpy
-from rclpy.time import Time
 from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
-from . import node_signals
-from .names import JOINT_NAMES, TEAMS
+from foos_core import node_signals
+from foos_core.names import JOINT_NAMES, TEAMS
+from foos_core.table_params import ParamsError
+
 from .sim_runner import Detection, Goal, RunnerConfig, SimRunner, StateSample
 from .simulation import CommandError, TableSimulation
-from .table_params import ParamsError
 
 FRAME = "table"
 BEHIND_RESYNC_S = 0.5

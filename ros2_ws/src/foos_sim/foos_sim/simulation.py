@@ -17,9 +17,10 @@ from typing import Optional, Sequence
 import mujoco
 import numpy as np
 
+from foos_core.names import BALL_JOINT, COMMAND_SIZE, JOINT_NAMES, TEAMS, team_joint_names
+from foos_core.table_params import load_params
+
 from .model_builder import model_from_params
-from .names import BALL_JOINT, COMMAND_SIZE, JOINT_NAMES, TEAMS, team_joint_names
-from .table_params import load_params
 
 HOME_SCORES = "home"  # ball centre crosses y = +half_length inside the away goal mouth
 AWAY_SCORES = "away"

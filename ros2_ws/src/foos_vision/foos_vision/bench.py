@@ -114,9 +114,7 @@ def calibrated_intrinsics(case: Case, workdir: Path, seed: int):
 
 
 def evaluate(video: Path, case: Case, figure_mask: bool = False, intrinsics=None, label: str = "") -> dict:
-    import cv2
 
-    from .camera import load_intrinsics
     from .backfill import OfflineTracker
     from .markers import load_markers
     from .render import read_truth

@@ -60,7 +60,7 @@ class JointStatesError(VisionError):
 
 
 def figure_joint_names() -> tuple[str, ...]:
-    from foos_sim.names import JOINT_NAMES
+    from foos_core.names import JOINT_NAMES
 
     return JOINT_NAMES
 
@@ -227,7 +227,7 @@ def joint_track(t: np.ndarray, names: list[str], position: np.ndarray, source: s
 
 def read_joint_track(bag: str) -> JointTrack:
     """The /joint_states of a bag as a JointTrack; VisionError with one line when the bag cannot give it."""
-    from foos_bag.bag_io import BagError, read_joint_states, topics
+    from foos_bag import BagError, read_joint_states, topics
 
     try:
         available = topics(bag)

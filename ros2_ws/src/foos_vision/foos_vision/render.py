@@ -18,8 +18,16 @@ import numpy as np
 from .camera import CameraConfig
 from .hands import AWAY_Z, HAND_BODY, HandPose
 from .markers import MarkerLayout
-from .scene import BALL_COLOURS, CAMERA_NAME, build_scene_model, hide_cover, set_rod_finish, set_ball_colour, set_lighting, \
-    set_team_colour
+from .scene import (
+    BALL_COLOURS,
+    CAMERA_NAME,
+    build_scene_model,
+    hide_cover,
+    set_ball_colour,
+    set_lighting,
+    set_rod_finish,
+    set_team_colour,
+)
 
 HIDDEN_Z = -2.0  # where a ball "picked up" by a hand is put for rendering: below the room floor
 
@@ -105,7 +113,7 @@ class SceneRenderer:
         self.ball_qpos = slice(ball.qposadr[0], ball.qposadr[0] + 3)
         self.ball_geom = self.model.geom("ball").id
         self.ball_radius = float(self.model.geom_size[self.ball_geom][0])
-        from foos_sim.names import JOINT_NAMES
+        from foos_core.names import JOINT_NAMES
 
         self.rod_qpos = np.array([self.model.joint(n).qposadr[0] for n in JOINT_NAMES])
         self.rng = np.random.default_rng(options.seed)
@@ -215,7 +223,7 @@ def write_truth(path: Path, truths: list[FrameTruth]) -> None:
 
 def write_joints(path: Path, truths: list[FrameTruth]) -> None:
     """frame,t and the 16 rod joints at each frame time: what /joint_states says on an instrumented table."""
-    from foos_sim.names import JOINT_NAMES
+    from foos_core.names import JOINT_NAMES
 
     rows = np.array([[i, f.t, *f.joints] for i, f in enumerate(truths)], float)
     fmt = ["%d", "%.9f"] + ["%.7f"] * len(JOINT_NAMES)

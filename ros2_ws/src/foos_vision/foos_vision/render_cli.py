@@ -119,9 +119,9 @@ def render_video(args: argparse.Namespace) -> int:
     import numpy as np
     from tqdm import tqdm
 
+    from foos_core.table_params import load_params
     from foos_sim.model_builder import build_mjcf
     from foos_sim.simulation import TableSimulation
-    from foos_sim.table_params import load_params
 
     from .hands import HandScript
     from .render import RenderOptions, SceneRenderer, render_frames, write_joints, write_truth

@@ -42,7 +42,7 @@ class RodGeometry:
 
 def rod_geometry(params_file: Optional[str] = None) -> RodGeometry:
     """The rods and figures of foos_sim's table (the nominal one when params_file is None)."""
-    from foos_sim.table_params import load_params
+    from foos_core.table_params import load_params
 
     tree = load_params(params_file)
     rods, figure = tree["rods"], tree["figure"]

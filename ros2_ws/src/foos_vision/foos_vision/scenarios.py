@@ -14,7 +14,7 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-from foos_sim.names import JOINT_NAMES
+from foos_core.names import JOINT_NAMES
 from foos_sim.simulation import TableSimulation
 
 SCENARIOS = ("play", "rolls")
@@ -110,7 +110,7 @@ class BagRollout:
     """Ball and rod states from a bag, interpolated to the requested times (time 0 = the bag's first state)."""
 
     def __init__(self, sim: TableSimulation, bag_path: str):
-        from foos_bag.bag_io import read_ball_states, read_joint_states, BagError  # noqa: F401
+        from foos_bag import BagError, read_ball_states, read_joint_states  # noqa: F401
 
         self.sim = sim
         balls = read_ball_states(bag_path)

@@ -7,7 +7,6 @@ can be stepped on it directly.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import cv2
 import mujoco

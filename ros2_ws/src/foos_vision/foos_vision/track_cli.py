@@ -71,7 +71,7 @@ def track_video(args: argparse.Namespace) -> int:
     import cv2
     from tqdm import tqdm
 
-    from foos_bag.bag_io import BagWriter, write_ball_detections, write_ball_states
+    from foos_bag import BagWriter, write_ball_detections, write_ball_states
 
     from .annotate import Annotator
     from .backfill import OfflineTracker

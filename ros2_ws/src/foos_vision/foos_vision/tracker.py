@@ -15,8 +15,17 @@ from .errors import MarkersError
 from .figure_mask import FigureGeometry, FigureMasker, projection_from_mapping
 from .geometry import MAX_TAG_RESIDUAL, Lens, PlaneMapping, TagLocator, fit_mapping
 from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
-from .rod_lines import (STEEL_AB_TOL, RodGeometry, camera_centre, fit_rod_shifts, on_rod_line, rod_axis_mask,
-                        rod_bands, rod_geometry, rod_mask)
+from .rod_lines import (
+    STEEL_AB_TOL,
+    RodGeometry,
+    camera_centre,
+    fit_rod_shifts,
+    on_rod_line,
+    rod_axis_mask,
+    rod_bands,
+    rod_geometry,
+    rod_mask,
+)
 from .velocity import ConstantVelocityKalman, KalmanState
 
 BALL_RADIUS = 0.0175

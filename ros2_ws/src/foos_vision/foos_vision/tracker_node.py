@@ -25,15 +25,15 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, JointState
 
-from foos_sim import node_signals
+from foos_core import node_signals
 
 from .camera import load_intrinsics
 from .cli_util import quiet_threads
 from .errors import VisionError
-from .markers import DEFAULT_MARKERS_FILE, load_markers
-from .ros_common import image_to_bgr, stamp_to_seconds
 from .figure_mask import FigureGeometry, figure_joint_names
 from .joint_sync import JointSync, ReadyFrame
+from .markers import DEFAULT_MARKERS_FILE, load_markers
+from .ros_common import image_to_bgr, stamp_to_seconds
 from .tracker import BallTracker, TrackerConfig
 
 # Best effort, deep enough for 0.25 s of 400 Hz encoders while a frame is being tracked.

@@ -15,7 +15,7 @@ import rclpy
 from rclpy.node import Node
 from sensor_msgs.msg import Image
 
-from foos_sim import node_signals
+from foos_core import node_signals
 
 from .errors import VisionError
 from .ros_common import seconds_to_stamp

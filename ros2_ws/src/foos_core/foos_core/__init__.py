@@ -1,0 +1,11 @@
+"""foos_core: the table contract in code, below every other package of the workspace.
+
+- `names`: teams, rods, joints, the command layout and the model's geom names (shared/CONTRACT.md);
+- `table_params`: the one parameter file of the table (`params/regulation_table.yaml`), loaded,
+  layered and validated, and `TableGeometry`, the dimensions other packages read from it;
+- `joints`: putting a message's joints into the contract's order by name;
+- `stamps`: ROS stamps to and from seconds;
+- `node_signals` and `nodes.run_node`: how every node of the workspace starts and stops.
+
+Only `node_signals` and `nodes` import rclpy; the rest is plain Python and numpy.
+"""

@@ -1,0 +1,144 @@
+"""The user-facing commands, run as a user runs them: train, evaluate, evaluate_bag (offline bags)."""
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from foos_policy.metrics import COLUMNS, SMOOTHED
+
+from .helpers import one_line_error
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory, ros_env):
+    """A tiny SAC run through the real CLI (the smoke test of the whole training pipeline)."""
+    import subprocess
+
+    out = tmp_path_factory.mktemp("train")
+    proc = subprocess.run(
+        ["ros2", "run", "foos_policy", "train", "--algo", "sac", "--steps", "300", "--learning-starts", "100",
+         "--reset", "hardened", "--opponent", "scripted", "--seed", "3", "--out", str(out), "--checkpoint-every", "200"],
+        capture_output=True, text=True, timeout=240, env=ros_env,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return out, proc
+
+
+@pytest.mark.timeout(300)
+def test_train_writes_model_metrics_figures_checkpoints_and_tensorboard(trained):
+    out, proc = trained
+    name = "sac_hardened_scripted_s3"
+    assert (out / f"{name}.zip").is_file()
+    with open(out / "metrics.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert rows, "no finished episode in 300 steps"
+    assert tuple(rows[0]) == COLUMNS
+    returns = np.array([float(r["return"]) for r in rows])
+    # the paper's smoothing: Return50 is the running mean of the last (up to) 50 returns
+    assert float(rows[-1]["Return50"]) == pytest.approx(returns[-50:].mean(), rel=1e-4)
+    assert {float(r["win"]) for r in rows} <= {0.0, 1.0}
+    for png in ("return50", "eplen50", "winrate50", "loserate50", "termgoal50", "return_vs_length"):
+        assert (out / "figures" / f"{png}.png").stat().st_size > 1000
+    assert list((out / "checkpoints").glob("*.zip"))
+    assert list((out / "tb").rglob("events.out.tfevents.*"))
+    run = json.loads((out / "run.json").read_text())
+    assert run["steps_done"] == 300 and run["algo"] == "sac"
+    assert "it/s" in proc.stderr or "step" in proc.stderr  # the progress bar
+
+
+@pytest.mark.timeout(300)
+def test_evaluate_writes_a_summary_with_confidence_intervals(trained, run_cli, tmp_path):
+    out, _ = trained
+    for policy in (str(out / "sac_hardened_scripted_s3.zip"), "zero"):
+        target = tmp_path / "eval.json"
+        proc = run_cli("evaluate", "--policy", policy, "--reset", "hardened", "--opponent", "scripted",
+                       "--episodes", "3", "--seed", "1", "--out", str(target), "--no-progress")
+        assert proc.returncode == 0, proc.stderr
+        summary = json.loads(target.read_text())
+        for key in ("win_rate", "own_goal_rate", "mean_length", "touches", "goals_after_touch", "no_touch_goal_share"):
+            assert key in summary
+        lo, hi = summary["win_rate_ci95"]
+        assert 0.0 <= lo <= summary["win_rate"] <= hi <= 1.0
+        assert summary["episodes"] == 3
+
+
+@pytest.mark.timeout(180)
+def test_self_play_against_a_frozen_policy(trained, run_cli, tmp_path):
+    out, _ = trained
+    frozen = str(out / "sac_hardened_scripted_s3.zip")
+    proc = run_cli("evaluate", "--policy", frozen, "--reset", "hardened", "--opponent", "selfplay", "--opponent-policy", frozen,
+                   "--episodes", "1", "--out", str(tmp_path / "selfplay.json"), "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads((tmp_path / "selfplay.json").read_text())["opponent"] == "selfplay"
+
+
+def test_metrics_smoothing_and_reader(tmp_path):
+    from foos_policy.metrics import MetricsWriter, read_metrics
+
+    w = MetricsWriter(tmp_path / "metrics.csv")
+    for i in range(60):
+        w.add(i * 10, {"return": float(i), "length": 10, "win": float(i % 2), "lose": 0.0, "term_goal": float(i % 2),
+                       "touches": 1, "goal_after_touch": 0.0, "goal_without_touch": 0.0})
+    w.close()
+    m = read_metrics(tmp_path / "metrics.csv")
+    assert m["Return50"][-1] == pytest.approx(np.arange(10, 60).mean())
+    assert m["WinRate50"][-1] == pytest.approx(0.5)
+    assert set(SMOOTHED) <= set(m)
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("exe", ["train", "evaluate", "evaluate_bag"])
+def test_help_explains_the_command(run_cli, exe):
+    proc = run_cli(exe, "--help")
+    assert proc.returncode == 0
+    assert "Example" in proc.stdout
+
+
+@pytest.mark.timeout(180)
+def test_bad_inputs_give_one_line_errors(run_cli, tmp_path):
+    assert "does not exist" in one_line_error(run_cli("evaluate", "--policy", str(tmp_path / "missing.zip"), "--episodes", "1"))
+    corrupt = tmp_path / "corrupt.zip"
+    corrupt.write_bytes(b"not a zip at all")
+    assert "not a saved SB3 model" in one_line_error(run_cli("evaluate", "--policy", str(corrupt), "--episodes", "1"))
+    assert "no policy named" in one_line_error(run_cli("evaluate", "--policy", "no_such_policy", "--episodes", "1"))
+    assert "no bag" in one_line_error(run_cli("evaluate_bag", str(tmp_path / "nope")))
+    not_a_bag = tmp_path / "empty_dir"
+    not_a_bag.mkdir()
+    one_line_error(run_cli("evaluate_bag", str(not_a_bag)))
+    # a real bag without the topics evaluate_bag needs
+    from foos_bag import BagWriter, write_ball_detections
+
+    bag = tmp_path / "detections_only"
+    with BagWriter(bag) as writer:
+        write_ball_detections(writer, np.arange(5) * 0.01, np.zeros((5, 3)))
+    assert "/ball/state" in one_line_error(run_cli("evaluate_bag", str(bag)))
+
+
+@pytest.mark.timeout(300)
+def test_evaluate_bag_on_a_written_game_matches_the_in_memory_analysis(run_cli, tmp_path):
+    """An in-process game written to a real bag (foos_bag's writers) reads back to the same statistics."""
+    from foos_bag import BagWriter, typestore, write_ball_states, write_joint_states
+    from foos_core.names import JOINT_NAMES
+    from foos_policy.game import analyze_game, play_game_samples
+    from foos_policy.policies import make_policy
+
+    s = play_game_samples(make_policy("scripted"), 12.0, seed=4)
+    bag = tmp_path / "game"
+    String = typestore().types["std_msgs/msg/String"]
+    with BagWriter(bag) as writer:
+        write_ball_states(writer, s["t"], s["ball_position"], s["ball_velocity"])
+        write_joint_states(writer, s["t"], list(JOINT_NAMES), s["joint_positions"], s["joint_velocities"])
+        writer.add_topic("/sim/goal", "std_msgs/msg/String")
+        for t, team in zip(s["goal_times"], s["goals"]):
+            writer.write("/sim/goal", int(t * 1e9), String(data=team))
+    expected = analyze_game(s["params"], s["t"], s["ball_position"], s["ball_velocity"], s["t"], s["joint_positions"], s["goals"])
+    proc = run_cli("evaluate_bag", str(bag), "--out", str(tmp_path / "stats.json"))
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads((tmp_path / "stats.json").read_text())
+    for key in ("goals_home", "goals_away", "touches_home", "touches_away", "shots_home"):
+        assert got[key] == expected[key], key
+    assert got["touches_home"] > 0
+    assert got["possession_home"] == pytest.approx(expected["possession_home"], abs=1e-6)

@@ -1,0 +1,162 @@
+"""The gymnasium env: API checks, the paper's observation/action/reward, resets, terminations, touches."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from foos_core.names import JOINT_NAMES
+from foos_policy.env import FoosballEnv
+from foos_policy.observation import OBS_SIZE, action_to_command, command_to_action, observe
+from foos_policy.tasks import HardenedPlacement, PaperReward, PaperServe
+
+
+@pytest.fixture(scope="module")
+def env():
+    return FoosballEnv("hardened", "scripted")
+
+
+@pytest.mark.timeout(120)
+def test_gymnasium_and_sb3_env_checkers_pass():
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    with pytest.warns(UserWarning):  # only the advice to normalise the paper's [-20, 20] box and infinite bounds
+        check_env(FoosballEnv("paper", "none"), skip_render_check=True)
+    with pytest.warns(UserWarning):
+        sb3_check_env(FoosballEnv("hardened", "scripted"))
+
+
+def test_spaces_are_the_papers(env):
+    assert env.observation_space.shape == (36,)
+    assert env.action_space.shape == (8,)
+    assert env.action_space.low.min() == -20 and env.action_space.high.max() == 20
+    assert env.dt == pytest.approx(0.02)  # 50 Hz control over the 20 kHz physics
+
+
+def _mirrored(ball_p, ball_v, q, dq):
+    """The same table state turned by 180 degrees about z: x, y flip, and the teams swap rods with
+    negated slide and rotation."""
+    n = len(q) // 2
+    swap = np.r_[np.arange(n, 2 * n), np.arange(n)]
+    return -ball_p, -ball_v, -q[swap], -dq[swap]
+
+
+def test_away_view_is_the_home_view_of_the_mirrored_table():
+    rng = np.random.default_rng(3)
+    p, v = rng.normal(size=3) * 0.2, rng.normal(size=3)
+    q, dq = rng.normal(size=16) * 0.5, rng.normal(size=16)
+    home = observe("home", p, v, q, dq)
+    away = observe("away", *_mirrored(p, v, q, dq))
+    np.testing.assert_allclose(home, away, atol=1e-6)
+    assert home.shape == (OBS_SIZE,)
+    # slot 0 is the home goalie, slot 7 the away goalie
+    assert home[4] == pytest.approx(q[JOINT_NAMES.index("home_goalie_slide")])
+    assert home[4 + 7 * 4] == pytest.approx(q[JOINT_NAMES.index("away_goalie_slide")])
+
+
+def test_actions_map_linearly_onto_the_drive_limits_and_mirror_for_away(env):
+    limits = env.sim.command_limits
+    full = np.full(8, 20.0)
+    np.testing.assert_allclose(action_to_command("home", full, limits), limits)
+    np.testing.assert_allclose(action_to_command("away", full, limits), -limits)
+    np.testing.assert_allclose(action_to_command("home", np.full(8, 99.0), limits), limits)  # clipped to the box
+    a = np.linspace(-20, 20, 8)
+    np.testing.assert_allclose(command_to_action("away", action_to_command("away", a, limits), limits), a)
+
+
+def test_reward_is_the_papers_formula():
+    r = PaperReward()
+    half = 0.6
+    y_v = 0.8 * half
+    base = r(0.0, 0.1, None, np.zeros(8), half)
+    assert base == pytest.approx(50 * 0.1 + 5 / (1 + abs(y_v - 0.1)))
+    assert r(0.1, 0.0, None, np.zeros(8), half) == pytest.approx(5 / (1 + y_v))  # no reward for going back
+    assert r(0.0, 0.1, "home", np.zeros(8), half) - base == pytest.approx(1000)
+    assert r(0.0, 0.1, "away", np.zeros(8), half) - base == pytest.approx(-1000)
+    assert base - r(0.0, 0.1, None, np.full(8, 20.0), half) == pytest.approx(1e-4 * 8 * 400)
+
+
+def test_resets_draw_the_documented_distributions(env):
+    rng = np.random.default_rng(0)
+    serves = [PaperServe().sample(rng, env.sim) for _ in range(300)]
+    p = np.array([s[0] for s in serves])
+    v = np.array([s[1] for s in serves])
+    assert np.all(np.abs(p[:, 0]) <= 0.005) and np.all(p[:, 1] == 0)
+    assert v[:, 1].min() >= 0 and v[:, 1].max() <= 15 and v[:, 1].max() > 13
+    assert np.all(np.abs(v[:, 0]) <= 0.5)
+    placed = [HardenedPlacement().sample(rng, env.sim) for _ in range(300)]
+    p = np.array([s[0] for s in placed])
+    speed = np.hypot(*np.array([s[1] for s in placed]).T)
+    assert np.all(np.abs(p[:, 1]) < 0.35) and np.all(speed <= 0.2)
+    # unaided, the fastest ball rolls v^2 / (2 * 0.15) = 0.13 m: far from either goal line at 0.6
+    assert np.all(np.abs(p[:, 1]) + speed**2 / 0.3 < 0.5)
+
+
+@pytest.mark.timeout(120)
+def test_hardened_reset_needs_a_touch_to_score():
+    env = FoosballEnv("hardened", "none")
+    wins = 0
+    for seed in range(5):
+        env.reset(seed=seed)
+        while True:
+            _, _, terminated, truncated, info = env.step(np.zeros(8))
+            if terminated or truncated:
+                break
+        stats = info["episode_stats"]
+        assert stats["stagnant"] == 1.0 and stats["touches"] == 0
+        wins += stats["win"]
+    assert wins == 0
+
+
+@pytest.mark.timeout(60)
+def test_a_served_ball_into_the_goal_ends_the_episode_as_a_win_without_touch():
+    env = FoosballEnv("paper", "none")
+    env.reset(seed=0)
+    # a ball rolling through the gap beside the away goalie (at x = 0) into the away goal
+    env.sim.reset(ball_position=(0.06, 0.45), ball_velocity=(0.0, 3.0))
+    for _ in range(20):
+        _, reward, terminated, truncated, info = env.step(np.zeros(8))
+        if terminated:
+            break
+    stats = info["episode_stats"]
+    assert stats["win"] == 1.0 and stats["term_goal"] == 1.0
+    assert stats["goal_without_touch"] == 1.0 and stats["goal_after_touch"] == 0.0
+    assert reward > 1000
+
+
+@pytest.mark.timeout(60)
+def test_a_kick_is_counted_as_a_home_touch_and_moves_the_ball_forward():
+    env = FoosballEnv("paper", "none")
+    env.reset(seed=0)
+    # ball still, 5 cm in front of the home attack's middle figure (x = 0, rod at y = 0.225)
+    env.sim.reset(ball_position=(0.0, 0.275), ball_velocity=(0.0, 0.0))
+    kick = np.zeros(8)
+    kick[7] = 20.0  # attack rotate, full speed toward +y
+    vy = []
+    for _ in range(3):
+        obs, *_ = env.step(kick)
+        vy.append(obs[3])
+    assert env.stats.touches_home >= 1
+    assert max(vy) > 0.5  # ball vy after the kick, m/s (before it meets the away rods)
+
+
+@pytest.mark.timeout(60)
+def test_vectorised_training_env_steps():
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    vec = DummyVecEnv([lambda: FoosballEnv("hardened", "scripted") for _ in range(2)])
+    vec.seed(0)
+    obs = vec.reset()
+    assert obs.shape == (2, 36)
+    for _ in range(5):
+        obs, rewards, dones, infos = vec.step(np.zeros((2, 8), np.float32))
+    assert rewards.shape == (2,) and np.all(np.isfinite(rewards))
+
+
+def test_lifted_opponent_starts_with_every_away_rod_horizontal():
+    env = FoosballEnv("paper", "lifted")
+    env.reset(seed=0)
+    q = env.sim.joint_positions()
+    for i, name in enumerate(JOINT_NAMES):
+        expected = -np.pi / 2 if name.startswith("away_") and name.endswith("_rotate") else 0.0
+        assert q[i] == pytest.approx(expected), name

@@ -1,0 +1,80 @@
+"""The workspace's structure, checked from its source: packages import only the packages below them on the
+data path (imports inside functions count), each package.xml declares the project packages its code
+imports, an import inside a function says why on its line or the line above, and no source file is long.
+"""
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SRC = ROOT / "ros2_ws" / "src"
+# The data path, bottom to top: a package may import those before it, never one after it.
+LAYERS = ("foos_core", "foos_bag", "foos_sim", "foos_vision", "foos_calibration", "foos_policy")
+MAX_LINES = 700
+
+
+def python_files(package: str) -> list[Path]:
+    return sorted((SRC / package / package).rglob("*.py"))
+
+
+def imports(path: Path) -> list[tuple[str, int, bool]]:
+    """(top-level module, line, at module level) of every import in the file."""
+    tree = ast.parse(path.read_text(), str(path))
+    top_level = {id(node) for node in tree.body}
+    for node in tree.body:  # `if TYPE_CHECKING:` / `try:` blocks at module level count as module level
+        if isinstance(node, (ast.If, ast.Try)):
+            top_level.update(id(n) for n in ast.walk(node))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [(alias.name.split(".")[0], node.lineno, id(node) in top_level) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.append((node.module.split(".")[0], node.lineno, id(node) in top_level))
+        elif isinstance(node, ast.ImportFrom):
+            found.append(("", node.lineno, id(node) in top_level))
+    return found
+
+
+def declared(package: str) -> set[str]:
+    xml = (SRC / package / "package.xml").read_text()
+    return set(re.findall(r"<(?:exec_)?depend>(foos_\w+)</(?:exec_)?depend>", xml))
+
+
+def test_every_package_is_on_the_data_path():
+    assert sorted(p.name for p in SRC.iterdir() if (p / "package.xml").is_file()) == sorted(LAYERS)
+
+
+@pytest.mark.parametrize("package", LAYERS)
+def test_a_package_imports_only_the_packages_below_it_and_declares_them(package):
+    allowed = set(LAYERS[: LAYERS.index(package)])
+    used, wrong = set(), []
+    for path in python_files(package):
+        for module, line, _ in imports(path):
+            if module.startswith("foos_") and module != package:
+                used.add(module)
+                if module not in allowed:
+                    wrong.append(f"{path.relative_to(ROOT)}:{line} imports {module}")
+    assert not wrong, "imports against the data path:\n" + "\n".join(wrong)
+    assert used <= declared(package), f"{package}/package.xml does not declare {sorted(used - declared(package))}"
+
+
+@pytest.mark.parametrize("package", LAYERS)
+def test_an_import_inside_a_function_says_why(package):
+    unexplained = []
+    for path in python_files(package):
+        lines = path.read_text().splitlines()
+        for _, line, at_top in imports(path):
+            if not at_top and "#" not in lines[line - 1] and not lines[line - 2].strip().startswith("#"):
+                unexplained.append(f"{path.relative_to(ROOT)}:{line}: {lines[line - 1].strip()}")
+    assert not unexplained, "imports inside functions without a comment saying why:\n" + "\n".join(unexplained)
+
+
+def test_no_source_file_is_over_700_lines():
+    files = [p for p in SRC.rglob("*.py") if "/build/" not in str(p)]
+    files += list((ROOT / "tests").rglob("*.py")) + [p for p in (ROOT / "scripts").iterdir() if p.is_file()]
+    long = [f"{p.relative_to(ROOT)}: {n}" for p in files if (n := len(p.read_text().splitlines())) > MAX_LINES]
+    assert not long, f"source files over {MAX_LINES} lines:\n" + "\n".join(long)
