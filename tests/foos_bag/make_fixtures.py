@@ -20,7 +20,10 @@ import sqlite3
 import sys
 from pathlib import Path
 
+from geometry_msgs.msg import PointStamped
+from mcap.writer import CompressionType, Writer
 from rclpy.serialization import serialize_message
+from sensor_msgs.msg import JointState
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
@@ -95,9 +98,6 @@ def ros2msg_definition(msgtype: str) -> str:
 
 def sample_messages():
     """Ball detections at 120 Hz for 1 s (capture stamps; received 25 ms later) and joint states at 50 Hz."""
-    from geometry_msgs.msg import PointStamped
-    from sensor_msgs.msg import JointState
-
     out = []
     for i in range(120):
         stamp = T0 + i * 8_333_333
@@ -165,8 +165,6 @@ def metadata_yaml(storage: str, file_name: str, msgs) -> str:
 
 
 def make_mcap(bag: Path, msgs) -> None:
-    from mcap.writer import CompressionType, Writer
-
     bag.mkdir()
     name = bag.name + "_0.mcap"
     with open(bag / name, "wb") as f:

@@ -8,16 +8,18 @@ from collections import defaultdict
 import numpy as np
 import pytest
 
-from foos_bag import bag_io
+from foos_bag import messages, read_ball_detections, topics
 
 from .helpers import BAGS
+
+pytestmark = pytest.mark.dds
 
 SIM_TOPICS = ["/joint_states", "/ball/state", "/ball/detection", "/sim/goal"]
 
 
-def raw_by_topic(bag, topics=None):
+def raw_by_topic(bag, topic_names=None):
     out = defaultdict(list)
-    for topic, ns, cdr in bag_io.messages(bag, topics, raw=True):
+    for topic, ns, cdr in messages(bag, topic_names, raw=True):
         out[topic].append((ns, bytes(cdr)))
     return out
 
@@ -51,8 +53,8 @@ def test_sim_node_round_trip_record_play_record(launch, tmp_path):
     for topic in ("/joint_states", "/ball/state", "/ball/detection"):
         assert [cdr for _, cdr in b[topic]] == [cdr for _, cdr in a[topic]], topic
     assert [cdr for _, cdr in b.get("/sim/goal", [])] == [cdr for _, cdr in a.get("/sim/goal", [])]
-    stamps_a = bag_io.read_ball_detections(tmp_path / "A").t
-    np.testing.assert_array_equal(bag_io.read_ball_detections(tmp_path / "B").t, stamps_a)
+    stamps_a = read_ball_detections(tmp_path / "A").t
+    np.testing.assert_array_equal(read_ball_detections(tmp_path / "B").t, stamps_a)
     # Original timing: the replay spans the same time as the recording.
     span = lambda msgs: (msgs[-1][0] - msgs[0][0]) * 1e-9  # noqa: E731
     assert span(b["/joint_states"]) == pytest.approx(span(a["/joint_states"]), rel=0.1)
@@ -88,10 +90,10 @@ def test_player_rate_filter_remap_clock_and_loop_on_a_foreign_bag(launch, tmp_pa
     first = looped.index(original[0])
     assert looped[first : first + len(original)] == original
     assert looped[first + len(original)] == original[0]
-    clock = bag_io.messages(tmp_path / "R", ["/clock"])
+    clock = messages(tmp_path / "R", ["/clock"])
     t = np.array([m.clock.sec + m.clock.nanosec * 1e-9 for _, _, m in clock])
     assert len(t) > 10
-    det_t = bag_io.read_ball_detections(fixture).t
+    det_t = read_ball_detections(fixture).t
     assert det_t[0] - 0.5 <= t.min() and t.max() <= det_t[-1] + 0.5  # /clock carries the bag's time
     assert np.all(np.diff(t) >= 0)
 
@@ -108,9 +110,9 @@ def test_recorder_node_all_topics_picks_up_new_best_effort_topics(launch, tmp_pa
     time.sleep(0.3)
     rec.signal(signal.SIGTERM)
     assert rec.wait(20) == 0, rec.text()
-    topics = bag_io.topics(tmp_path / "node_bag")
-    assert set(topics) == {"/load/t0", "/load/t1"}
+    recorded = topics(tmp_path / "node_bag")
+    assert set(recorded) == {"/load/t0", "/load/t1"}
     # A reliable subscription would match no best-effort publisher and get nothing; loopback loses little.
-    assert all(n >= 270 for _, n in topics.values()), topics
+    assert all(n >= 270 for _, n in recorded.values()), recorded
     meta = (tmp_path / "node_bag" / "metadata.yaml").read_text()
     assert "reliability: best_effort" in meta

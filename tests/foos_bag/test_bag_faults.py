@@ -7,9 +7,11 @@ import time
 import numpy as np
 import pytest
 
-from foos_bag import bag_io
+from foos_bag import BagError, messages, topics
 
 from .helpers import load_log, run_cli
+
+pytestmark = pytest.mark.dds
 
 TOPICS = ["/load/t0", "/load/t1"]
 RATE = 200.0  # Hz per topic
@@ -44,7 +46,7 @@ def check_kept(bag, published, signal_ns: int, lost_window: float) -> int:
     `lost_window` + delivery before the signal is there; nothing published after the signal is."""
     total = 0
     for topic in TOPICS:
-        msgs = [m for _, _, m in bag_io.messages(bag, [topic])]
+        msgs = [m for _, _, m in messages(bag, [topic])]
         seqs = np.array([int(m.point.x) for m in msgs])
         assert len(seqs) > RATE, f"{topic}: only {len(seqs)} messages kept"
         assert np.all(np.diff(seqs) == 1), f"{topic}: gaps or duplicates in the kept sequence"
@@ -74,7 +76,7 @@ def test_clean_stop_keeps_everything_received(launch, tmp_path, sig, storage, ex
     assert rc == 0, rec.text()
     assert "Recording stopped" in rec.text()
     kept = check_kept(bag, published, signal_ns, lost_window=0.0)
-    assert sum(bag_io.topics(bag)[t][1] for t in TOPICS) == kept  # metadata.yaml agrees with the files
+    assert sum(topics(bag)[t][1] for t in TOPICS) == kept  # metadata.yaml agrees with the files
 
 
 @pytest.mark.timeout(90)
@@ -82,8 +84,8 @@ def test_clean_stop_keeps_everything_received(launch, tmp_path, sig, storage, ex
 def test_sigkill_then_reindex_recovers_what_was_flushed(launch, tmp_path, storage, domain):
     bag, rc, signal_ns, published, _ = record_then_signal(launch, tmp_path, domain, signal.SIGKILL, storage)
     assert rc == -signal.SIGKILL
-    with pytest.raises(bag_io.BagError, match="reindex"):
-        bag_io.topics(bag)
+    with pytest.raises(BagError, match="reindex"):
+        topics(bag)
     result = run_cli(["ros2", "bag", "reindex", str(bag)], tmp_path)
     assert result.returncode == 0, result.stderr
     # The recorder flushes every 0.1 s; that is the most a SIGKILL may lose.

@@ -6,7 +6,12 @@ import os
 import sys
 import time
 
-from foos_bag.bag_io import STORAGE_SUFFIX, BagError
+from . import player, recorder
+from .errors import BagError
+from .info import summary
+from .metadata import METADATA_FILE
+from .repair import reindex
+from .storage import STORAGE_SUFFIX
 
 USAGE = """usage: ros2 bag <verb> [options]
 
@@ -64,9 +69,7 @@ def cmd_record(argv: list[str]) -> None:
     output = ns.output or time.strftime("rosbag2_%Y_%m_%d-%H_%M_%S")
     if os.path.exists(output):
         _die("record", f"{output} exists already; refusing to overwrite it (choose another -o)")
-    from foos_bag.recorder import RecordConfig, run
-
-    config = RecordConfig(
+    config = recorder.RecordConfig(
         output=output,
         topics=ns.topics,
         all_topics=ns.all,
@@ -81,18 +84,16 @@ def cmd_record(argv: list[str]) -> None:
         use_sim_time=ns.use_sim_time,
         executor=ns.executor,
     )
-    sys.exit(run(config, ["ros2_bag_record"]))
+    sys.exit(recorder.run(config, ["ros2_bag_record"]))
 
 
 def cmd_play(argv: list[str]) -> None:
-    from foos_bag.player import build_parser, config_from_args, run
-
-    ns = build_parser().parse_args(argv)
+    ns = player.build_parser().parse_args(argv)
     try:
-        config = config_from_args(ns)
+        config = player.config_from_args(ns)
     except BagError as exc:
         _die("play", str(exc), 2)
-    sys.exit(run(config, ["ros2_bag_play"]))
+    sys.exit(player.run(config, ["ros2_bag_play"]))
 
 
 def cmd_info(argv: list[str]) -> None:
@@ -100,8 +101,6 @@ def cmd_info(argv: list[str]) -> None:
                                 "per-topic message counts and types.")
     p.add_argument("bag", help="bag directory (or a single .mcap/.db3 file)")
     ns = p.parse_args(argv)
-    from foos_bag.info import summary
-
     try:
         print(summary(ns.bag))
     except BagError as exc:
@@ -118,15 +117,13 @@ def cmd_reindex(argv: list[str]) -> None:
     )
     p.add_argument("bag", help="bag directory")
     ns = p.parse_args(argv)
-    from foos_bag.repair import reindex
-
     try:
         reports = reindex(ns.bag)
     except BagError as exc:
         _die("reindex", str(exc))
     for r in reports:
         print(f"{r.path}: {r.status}, {r.messages} messages" + (f" ({r.note})" if r.note else ""))
-    print(f"wrote {os.path.join(ns.bag, 'metadata.yaml')}")
+    print(f"wrote {os.path.join(ns.bag, METADATA_FILE)}")
 
 
 VERBS = {"record": cmd_record, "play": cmd_play, "info": cmd_info, "reindex": cmd_reindex}

@@ -4,7 +4,12 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from foos_bag.bag_io import BagError, open_reader, storage_files
+from .reader import open_reader
+from .storage import STORAGE_SUFFIX, storage_files
+
+__all__ = ["summary"]
+
+STORAGE_OF_SUFFIX = {suffix: storage for storage, suffix in STORAGE_SUFFIX.items()}
 
 
 def _size(n: float) -> str:
@@ -30,7 +35,7 @@ def summary(path: str | Path) -> str:
         else:
             files = [path]
         size = sum(p.stat().st_size for p in files)
-        storage = {".mcap": "mcap", ".db3": "sqlite3"}.get(files[0].suffix, "?") if files else "?"
+        storage = STORAGE_OF_SUFFIX.get(files[0].suffix, "?") if files else "?"
         count = reader.message_count
         start = reader.start_time if count else 0
         end = reader.end_time - 1 if count else 0  # rosbags reports one past the last message
@@ -60,5 +65,3 @@ def summary(path: str | Path) -> str:
     lines.append("Service information: ")
     return "\n".join(lines)
 
-
-__all__ = ["summary", "BagError"]

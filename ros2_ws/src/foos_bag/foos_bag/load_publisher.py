@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
 import time
 
@@ -16,7 +15,8 @@ import rclpy
 from geometry_msgs.msg import PointStamped
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
+
+from foos_core import node_signals
 
 
 class LoadPublisher(Node):
@@ -52,10 +52,8 @@ def main(argv: list[str] | None = None) -> None:
         print("load_publisher: --rate, --topics and --duration must be > 0", file=sys.stderr)
         sys.exit(2)
 
-    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    stop = [False]
-    signal.signal(signal.SIGINT, lambda *_: stop.__setitem__(0, True))
-    signal.signal(signal.SIGTERM, lambda *_: stop.__setitem__(0, True))
+    # A second Ctrl-C stops it the same way: the log of what was published is still written.
+    stop = node_signals.init(repeat_quits=False)
     node = LoadPublisher(ns.topics, ns.best_effort)
     times: list[list[int]] = [[] for _ in range(ns.topics)]
     try:
@@ -72,7 +70,7 @@ def main(argv: list[str] | None = None) -> None:
             delay = due - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
-            if stop[0]:
+            if stop.requested:
                 break
             now = time.time_ns()
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)

@@ -16,9 +16,13 @@ import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
 
-from foos_bag.bag_io import BagError, open_reader
-from foos_bag.ros_types import message_class, publisher_qos
+from foos_core.names import CLOCK_TOPIC
+
+from .errors import BagError
+from .reader import check_topics, damaged_file_errors, open_reader
+from .ros_types import message_class, publisher_qos
 
 
 @dataclass
@@ -63,15 +67,9 @@ class Player(Node):
         try:
             conns = list(reader.connections)  # rosbags clears its own list on close
             self.bag_start_ns = reader.start_time if reader.message_count else 0
-            available = {c.topic for c in conns}
         finally:
             reader.close()
-        if config.topics:
-            missing = [t for t in config.topics if t not in available]
-            if missing:
-                raise BagError(
-                    f"{config.bag} has no topic {', '.join(missing)} (it has: {', '.join(sorted(available))})"
-                )
+        check_topics(config.bag, config.topics, (c.topic for c in conns))
         self.publishers_by_topic = {}
         for conn in conns:
             if config.topics and conn.topic not in config.topics:
@@ -87,9 +85,7 @@ class Player(Node):
             raise BagError(f"nothing to play from {config.bag}: no playable topics selected")
         self.clock_pub = None
         if config.clock_hz > 0:
-            from rosgraph_msgs.msg import Clock
-
-            self.clock_pub = self.create_publisher(Clock, "/clock", QoSProfile(depth=10))
+            self.clock_pub = self.create_publisher(Clock, CLOCK_TOPIC, QoSProfile(depth=10))
             self._clock_msg = Clock()
         self.published = 0
         self.stop = False
@@ -121,16 +117,13 @@ class Player(Node):
             first_ns = self.bag_start_ns + int(cfg.start_offset * 1e9)
             start_wall = time.monotonic()
             self._next_clock = start_wall
-            for conn, stamp, data in reader.messages(connections=conns, start=first_ns):
-                self._wait_until(due_time(start_wall, first_ns, stamp, cfg.rate), start_wall - 0.0)
-                if self.stop:
-                    return
-                self.publishers_by_topic[conn.topic].publish(bytes(data))
-                self.published += 1
-        except BagError:
-            raise
-        except Exception as exc:
-            raise BagError(f"{cfg.bag} is corrupt or truncated while playing ({str(exc).splitlines()[0]})") from None
+            with damaged_file_errors(cfg.bag, "playing"):
+                for conn, stamp, data in reader.messages(connections=conns, start=first_ns):
+                    self._wait_until(due_time(start_wall, first_ns, stamp, cfg.rate), start_wall)
+                    if self.stop:
+                        return
+                    self.publishers_by_topic[conn.topic].publish(bytes(data))
+                    self.published += 1
         finally:
             reader.close()
 

@@ -13,15 +13,18 @@ import time
 from dataclasses import dataclass, field
 from functools import partial
 
-import rclpy
 from rclpy.exceptions import ParameterException
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import Executor, SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from foos_bag.bag_io import BagError, BagWriter
-from foos_bag.ros_types import message_class, subscription_qos, to_bag_qos
 from foos_core import node_signals
+from foos_core.nodes import run_node
+
+from .errors import BagError, first_line
+from .ros_types import message_class, subscription_qos, to_bag_qos
+from .writer import BagWriter
 
 
 @dataclass
@@ -186,41 +189,50 @@ class Recorder(Node):
         )
 
 
-def make_executor(kind: str):
-    if kind == "events":
-        from rclpy.experimental import EventsExecutor
+class BadParameter(ValueError):
+    """A ROS parameter of the recorder node has a value it cannot take."""
 
+
+def make_executor(kind: str) -> Executor:
+    if kind == "events":
         return EventsExecutor()
     if kind != "single":
         raise BagError(f"unknown executor {kind!r}: use 'single' or 'events'")
     return SingleThreadedExecutor()
 
 
+def record(recorder: Recorder, executor: Executor, stop: node_signals.StopSignal) -> None:
+    """Spin until SIGINT/SIGTERM, then write what DDS already delivered and close the bag."""
+    node_signals.spin_until_stopped(executor, stop)
+    recorder.drain(executor)
+    recorder.finish()
+
+
 def run(config: RecordConfig | None, args: list[str] | None = None) -> int:
-    """Record until SIGINT/SIGTERM. Returns the exit code; errors are one line on stderr."""
-    # The bag is always closed by us, in order: a signal, the first or a later one, only sets the flag
-    # that the spin loop checks.
-    stop = node_signals.init(args, repeat_quits=False)
-    recorder = None
-    try:
-        recorder = Recorder(config)
-        executor = make_executor(recorder.config.executor)
-        executor.add_node(recorder)
-        node_signals.spin_until_stopped(executor, stop)
-        recorder.drain(executor)
-        recorder.finish()
-        return 0
-    except BagError as exc:
-        print(f"record: {exc}", file=sys.stderr)
-        return 1
-    except ParameterException as exc:  # e.g. -p output:=N, which YAML reads as the boolean false
-        print(f"record: bad parameter: {str(exc).splitlines()[0]} (quote strings: -p output:=\"'N'\")", file=sys.stderr)
-        return 2
-    finally:
-        if recorder is not None:
-            recorder.writer.close()  # no-op after finish(); on any error it keeps what was recorded
-            recorder.destroy_node()
-        rclpy.try_shutdown()
+    """Record until SIGINT/SIGTERM. Returns the exit code; errors are one line on stderr.
+
+    The bag is always closed by us, in order: a signal, the first or a later one, only sets the flag that
+    the spin loop checks (repeat_quits=False). On any error the writer is closed with what was recorded.
+    """
+    recorders: list[Recorder] = []  # the executor is made after the node, whose config names its kind
+
+    def make_recorder() -> Recorder:
+        try:
+            recorders.append(Recorder(config))
+        except ParameterException as exc:  # e.g. -p output:=N, which YAML reads as the boolean false
+            raise BadParameter(f"bad parameter: {first_line(exc)} (quote strings: -p output:=\"'N'\")") from None
+        return recorders[0]
+
+    return run_node(
+        "record",
+        make_recorder,
+        run=record,
+        errors={BagError: 1, BadParameter: 2},
+        on_exit=lambda recorder: recorder.writer.close(),  # a no-op after finish()
+        make_executor=lambda: make_executor(recorders[0].config.executor),
+        args=args,
+        repeat_quits=False,
+    )
 
 
 def main(args: list[str] | None = None) -> None:

@@ -21,19 +21,18 @@ import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from backports import zstd
+from lz4.frame import decompress as lz4_decompress
 from rosbags.interfaces import Connection, ConnectionExtRosbag2, MessageDefinition, MessageDefinitionFormat
 from rosbags.rosbag2.metadata import parse_qos
+from rosbags.rosbag2.storage_mcap import McapReader
 
-from foos_bag.bag_io import (
-    METADATA_FILE,
-    BagError,
-    _FlushingMcap,
-    _qos_string,
-    build_metadata,
-    storage_files,
-    typestore,
-    write_metadata,
-)
+from .errors import BagError
+from .message_types import typestore
+from .metadata import build_metadata, qos_string, write_metadata
+from .storage import FlushingMcapWriter, storage_files
+
+__all__ = ["FileReport", "reindex", "scan_mcap"]
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_DATA_END, OP_FOOTER = 0x03, 0x04, 0x05, 0x06, 0x0F, 0x02
@@ -52,8 +51,6 @@ class _Scan:
     schemas: dict[int, tuple[str, str, str]] = field(default_factory=dict)  # id -> (name, encoding, data)
     channels: dict[int, tuple[int, str, str, dict[str, str]]] = field(default_factory=dict)
     messages: list[tuple[int, int, bytes]] = field(default_factory=list)  # (channel, log_time, data)
-    complete: bool = False
-    stopped_at: int = 0
     reason: str = ""
 
 
@@ -116,13 +113,9 @@ def _decompress(compression: str, data: memoryview) -> memoryview:
     if compression == "":
         return data
     if compression == "zstd":
-        from backports import zstd
-
         return memoryview(zstd.decompress(bytes(data)))
     if compression == "lz4":
-        from lz4.frame import decompress
-
-        return memoryview(decompress(bytes(data)))
+        return memoryview(lz4_decompress(bytes(data)))
     raise _Cut(f"unknown chunk compression {compression!r}")
 
 
@@ -134,7 +127,6 @@ def _scan_records(scan: _Scan, data: memoryview, base: int, inner: bool = False)
         op = b.take(1)[0]
         length = b.u64()
         if not inner and op in (OP_DATA_END, OP_FOOTER):
-            scan.complete = True
             return
         if b.pos + length > len(data):
             if op == OP_CHUNK and not inner:
@@ -165,8 +157,6 @@ def scan_mcap(path: Path) -> _Scan:
 
 
 def _mcap_is_intact(path: Path) -> bool:
-    from rosbags.rosbag2.storage_mcap import McapReader
-
     try:
         reader = McapReader(path)
         reader.open()
@@ -181,7 +171,7 @@ def _rewrite_mcap(path: Path, scan: _Scan) -> tuple[list[tuple[str, str, str, li
     tmp = path.with_name(path.name + ".reindex.tmp")
     if tmp.exists():
         tmp.unlink()
-    writer = _FlushingMcap(tmp, interval=1e9, chunk_bytes=1 << 20)
+    writer = FlushingMcapWriter(tmp, interval=1e9, chunk_bytes=1 << 20)
     conns: dict[int, Connection] = {}
     added_types: set[str] = set()
     counts: dict[int, int] = {}
@@ -202,7 +192,7 @@ def _rewrite_mcap(path: Path, scan: _Scan) -> tuple[list[tuple[str, str, str, li
         if name not in added_types:
             writer.add_msgtype(conn)
             added_types.add(name)
-        writer.add_connection(conn, _qos_string(qos))
+        writer.add_connection(conn, qos_string(qos))
         conns[cid] = conn
         counts[cid] = 0
     start, end, n = 2**63 - 1, 0, 0
@@ -223,8 +213,6 @@ def _rewrite_mcap(path: Path, scan: _Scan) -> tuple[list[tuple[str, str, str, li
 
 
 def _mcap_rows(path: Path) -> tuple[list, dict]:
-    from rosbags.rosbag2.storage_mcap import McapReader
-
     reader = McapReader(path)
     reader.open()
     try:
@@ -303,5 +291,3 @@ def reindex(bag: str | Path) -> list[FileReport]:
     write_metadata(bag, build_metadata(storage, files, [tuple(r) for r in by_topic.values()]))
     return reports
 
-
-__all__ = ["FileReport", "reindex", "scan_mcap", "METADATA_FILE"]
