@@ -14,6 +14,9 @@ from foos_policy.policies import shipped_policies
 
 from .helpers import DOMAIN_IDS, one_line_error
 
+# Every test here starts nodes that talk over DDS.
+pytestmark = pytest.mark.dds
+
 GAME_WALL_S = 25.0
 
 

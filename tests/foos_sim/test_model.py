@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import foos_sim
-from foos_core.names import JOINT_NAMES
+from foos_core.names import AXES, JOINT_NAMES, RODS, TEAMS, team_joint_names
 from foos_core.table_params import ParamsError, load_params
 
 
@@ -112,3 +112,17 @@ def test_load_model_is_importable_in_a_plain_interpreter():
     """)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert out[0] == "16" and math.isclose(float(out[1]), 5e-5)
+
+
+def test_command_limits_from_the_params_are_the_built_drives_limits():
+    params = load_params()
+    for slide, rotate in ((None, None), (2.5, 33.3)):
+        if slide is not None:
+            params["rods"]["slide_speed_limit"], params["rods"]["rotate_speed_limit"] = slide, rotate
+        limits = foos_sim.command_limits(params)
+        assert limits.tolist() == [params["rods"][f"{axis}_speed_limit"] for _rod in RODS for axis in AXES]
+        sim = foos_sim.TableSimulation(params=params)
+        np.testing.assert_array_equal(limits, sim.command_limits)
+        for team in TEAMS:
+            ctrl = [sim.model.actuator(name).ctrlrange.tolist() for name in team_joint_names(team)]
+            assert ctrl == [[-limit, limit] for limit in limits]

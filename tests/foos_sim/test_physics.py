@@ -254,3 +254,25 @@ def test_velocity_servos_follow_commands_and_respect_limits(nominal_sim):
     # compresses it by a few millimetres, never past the side wall.
     travel = nominal_sim.model.joint("home_midfield_slide").range[1]
     assert nominal_sim.joint_positions()[JOINT_NAMES.index("home_midfield_slide")] <= travel + 0.005
+
+
+@pytest.mark.parametrize("team", ["home", "away"])
+def test_figure_contacts_name_the_team_whose_figure_the_ball_touches(nominal_sim, team):
+    # Only `team`'s rods hang down; the ball rolls from the centre line into its attack figures.
+    rods = np.array([0.0 if name.startswith(team) or not name.endswith("rotate") else np.pi / 2 for name in JOINT_NAMES])
+    direction = 1.0 if team == "home" else -1.0
+    launch(nominal_sim, (0.0, 0.1 * direction), (0.0, 1.0 * direction), rods=rods)
+    assert nominal_sim.figure_contacts() == (False, False)
+    seen = set()
+    for _ in range(int(0.3 / (5 * nominal_sim.timestep))):
+        nominal_sim.step(5)
+        seen.add(nominal_sim.figure_contacts())
+    assert seen == {(False, False), (team == "home", team == "away")}
+
+
+def test_a_diverged_state_is_not_finite(nominal_sim):
+    nominal_sim.reset()
+    assert nominal_sim.state_is_finite()
+    nominal_sim.data.qpos[0] = np.nan
+    assert not nominal_sim.state_is_finite()
+    nominal_sim.reset()

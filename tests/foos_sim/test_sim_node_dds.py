@@ -19,6 +19,9 @@ from std_srvs.srv import Trigger
 
 from foos_core.names import JOINT_NAMES
 
+# Every test here starts nodes that talk over DDS.
+pytestmark = pytest.mark.dds
+
 # This file's ROS_DOMAIN_ID; other test areas use other ranges. One probe context serves the whole
 # module (tests run one after another, each with its own sim_node), because creating and shutting
 # down many rclpy contexts in one process is where rclpy has crashed on us.

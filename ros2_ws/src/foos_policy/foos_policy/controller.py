@@ -12,7 +12,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from foos_core.names import JOINT_NAMES, TEAMS
+from foos_core.joints import joint_order, take_joints
+from foos_core.names import COMMAND_SIZE, JOINT_NAMES, TEAMS
 
 from .observation import action_to_command, observe
 from .policies import Policy
@@ -38,18 +39,22 @@ class BallSample:
 
 def joint_sample(stamp: float, names: Sequence[str], positions: Sequence[float], velocities: Sequence[float]) -> JointSample:
     """Reorder a JointState's arrays into JOINT_NAMES order; missing velocities count as zero."""
-    index = {name: i for i, name in enumerate(names)}
-    missing = [n for n in JOINT_NAMES if n not in index]
+    order = joint_order(names, allow_missing=True)
+    missing = missing_joints(order)
     if missing:
-        raise StateError(f"/joint_states lacks {len(missing)} of the 16 rod joints (e.g. {missing[0]})")
+        raise StateError(f"/joint_states lacks {len(missing)} of the {len(JOINT_NAMES)} rod joints (e.g. {missing[0]})")
     if len(positions) != len(names):
         raise StateError("/joint_states has a different number of names and positions")
-    order = np.array([index[n] for n in JOINT_NAMES])
-    q = np.asarray(positions, dtype=float)[order]
-    dq = np.asarray(velocities, dtype=float)[order] if len(velocities) == len(names) else np.zeros(len(JOINT_NAMES))
+    q = take_joints(positions, order)
+    dq = take_joints(velocities, order) if len(velocities) == len(names) else np.zeros(len(JOINT_NAMES))
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(dq))):
         raise StateError("/joint_states holds NaN or infinite values")
     return JointSample(stamp, q, dq)
+
+
+def missing_joints(order: np.ndarray) -> list[str]:
+    """The rod joints that joint_order(..., allow_missing=True) did not find, in JOINT_NAMES order."""
+    return [JOINT_NAMES[i] for i in np.flatnonzero(order < 0)]
 
 
 def ball_sample(stamp: float, position: Sequence[float], velocity: Sequence[float]) -> BallSample:
@@ -77,7 +82,7 @@ class PolicyController:
 
     def hold(self) -> np.ndarray:
         """Rods held: zero target velocities keep every rod where it is."""
-        return np.zeros(8)
+        return np.zeros(COMMAND_SIZE)
 
     def stale_reason(self, now: float) -> Optional[str]:
         for what, sample in (("/joint_states", self.joints), ("/ball/state", self.ball)):

@@ -5,9 +5,9 @@
     obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
 
 Control runs at `control_rate` Hz (50 by default) over the 20 kHz physics. Inside one control step
-the physics advances in chunks of CHUNK steps (0.25 ms, shorter than a ball-figure contact, which
-lasts about 0.5 ms), so goals are seen before a scored ball can bounce back out of the pocket and
-every rod-ball touch is counted.
+the simulation advances in chunks of CHUNK steps (0.25 ms, shorter than a ball-figure contact, which
+lasts about 0.5 ms): the episode ends at the first chunk after which the simulation reports a goal,
+and every rod-ball touch is counted.
 """
 from __future__ import annotations
 
@@ -15,10 +15,9 @@ from dataclasses import dataclass, field
 from typing import Any, Optional
 
 import gymnasium as gym
-import mujoco
 import numpy as np
 
-from foos_core.names import BALL_JOINT, RODS, TEAMS
+from foos_core.names import COMMAND_SIZE, TEAMS
 from foos_sim.simulation import TableSimulation
 
 from .observation import ACTION_LIMIT, OBS_SIZE, action_to_command, observe
@@ -93,19 +92,9 @@ class FoosballEnv(gym.Env):
         self.dt = self.n_chunks * CHUNK * self.sim.timestep
 
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
-        self.action_space = gym.spaces.Box(-ACTION_LIMIT, ACTION_LIMIT, (8,), np.float32)
+        self.action_space = gym.spaces.Box(-ACTION_LIMIT, ACTION_LIMIT, (COMMAND_SIZE,), np.float32)
 
-        model = self.sim.model
-        ball = model.joint(BALL_JOINT)
-        self._ball_q = int(ball.qposadr[0])
-        self._ball_v = int(ball.dofadr[0])
-        # geom id -> 1 for a home figure, 2 for an away figure, 0 otherwise
-        self._geom_team = np.zeros(model.ngeom, dtype=np.int8)
-        for g in range(model.ngeom):
-            name = model.geom(g).name
-            if "_figure" in name:
-                self._geom_team[g] = 1 + TEAMS.index(name.split("_", 1)[0])
-        self._touching = [False, False]
+        self._touching = dict.fromkeys(TEAMS, False)  # whether the ball touched the team's figures after the last chunk
         self.stats = EpisodeStats()
         self._stagnant_count = 0
 
@@ -117,7 +106,7 @@ class FoosballEnv(gym.Env):
         self.sim.reset(ball_position=position, ball_velocity=velocity,
                        joint_positions=initial_joints() if initial_joints else None)
         self.stats = EpisodeStats(final_y=float(position[1]))
-        self._touching = [False, False]
+        self._touching = dict.fromkeys(TEAMS, False)
         self._stagnant_count = 0
         return self._observe("home"), {}
 
@@ -130,14 +119,13 @@ class FoosballEnv(gym.Env):
         else:
             self.sim.set_command("away", action_to_command("away", away, self.sim.command_limits))
 
-        y_before = float(self.sim.data.qpos[self._ball_q + 1])
+        y_before = float(self.sim.ball_position()[1])
         goal = self._advance()
-        qpos = self.sim.data.qpos
-        y_after = float(qpos[self._ball_q + 1])
-        unstable = not np.all(np.isfinite(qpos))
+        y_after = float(self.sim.ball_position()[1])
+        unstable = not self.sim.state_is_finite()
         reward = self.reward_fn(y_before, y_after, goal, a, self.sim.half_length)
 
-        speed = float(np.hypot(*self.sim.data.qvel[self._ball_v: self._ball_v + 2]))
+        speed = float(np.hypot(*self.sim.ball_velocity()[:2]))
         self._stagnant_count = self._stagnant_count + 1 if speed < self.config.stagnant_speed else 0
         stats = self.stats
         stats.length += 1
@@ -161,28 +149,21 @@ class FoosballEnv(gym.Env):
         return observe(team, sim.ball_position(), sim.ball_velocity(), sim.joint_positions(), sim.joint_velocities())
 
     def _advance(self) -> Optional[str]:
-        model, data = self.sim.model, self.sim.data
-        qpos = data.qpos
-        bq = self._ball_q
-        half_length, goal_half = self.sim.half_length, self.sim.goal_half_width
+        """One control step of chunks; the team that scored (the episode ends there), or None."""
         for _ in range(self.n_chunks):
-            mujoco.mj_step(model, data, nstep=CHUNK)
-            if data.ncon:
-                teams = self._geom_team[data.contact.geom[: data.ncon]].max(axis=1)
-                self._register_touch(0, bool((teams == 1).any()), float(qpos[bq + 1]))
-                self._register_touch(1, bool((teams == 2).any()), float(qpos[bq + 1]))
-            elif self._touching[0] or self._touching[1]:
-                self._touching = [False, False]
-            y = qpos[bq + 1]
-            if abs(y) > half_length and abs(qpos[bq]) <= goal_half:
-                return "home" if y > 0 else "away"
+            goal = self.sim.step(CHUNK)
+            for team, touching in zip(TEAMS, self.sim.figure_contacts()):
+                self._register_touch(team, touching)
+            if goal is not None:
+                return goal
         return None
 
-    def _register_touch(self, team: int, touching: bool, y: float) -> None:
+    def _register_touch(self, team: str, touching: bool) -> None:
+        """Counts a touch when the ball begins touching a team's figures."""
         if touching and not self._touching[team]:
-            if team == 0:
+            if team == "home":
                 self.stats.touches_home += 1
-                self.stats.last_home_touch_y = y
+                self.stats.last_home_touch_y = float(self.sim.ball_position()[1])
             else:
                 self.stats.touches_away += 1
         self._touching[team] = touching
@@ -192,4 +173,4 @@ def make_env(reset: str = "paper", opponent: str = "none", opponent_policy: Opti
     return FoosballEnv(reset=reset, opponent=opponent, opponent_policy=opponent_policy, **overrides)
 
 
-__all__ = ["FoosballEnv", "EnvConfig", "EpisodeStats", "make_env", "RODS"]
+__all__ = ["FoosballEnv", "EnvConfig", "EpisodeStats", "make_env"]

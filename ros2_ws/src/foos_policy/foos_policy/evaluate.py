@@ -2,12 +2,14 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
-from .tasks import OPPONENTS, RESETS
+from .commands import add_task_arguments, check_task_arguments, run_command
+from .env import make_env
+from .evaluation import episode_seeds, run_episodes, summarize
+from .policies import PolicyError, make_policy, shipped_policies
 
 DESCRIPTION = """\
 Evaluate a policy for the home team in-process on a fixed set of episode seeds and write a JSON summary.
@@ -33,9 +35,7 @@ Example:
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="evaluate", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--policy", help="zero | random | scripted | shipped NAME | PATH.zip")
-    p.add_argument("--reset", choices=RESETS, default="paper", help="paper or hardened (default paper)")
-    p.add_argument("--opponent", choices=OPPONENTS, default="none", help="none, scripted or selfplay (default none)")
-    p.add_argument("--opponent-policy", default=None, help="frozen away policy for --opponent selfplay")
+    add_task_arguments(p)
     p.add_argument("--episodes", type=int, default=100, help="number of episodes (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the episode set (default 0)")
     p.add_argument("--out", default=None, help="JSON file to write (default: print only)")
@@ -46,16 +46,11 @@ def parse_args(argv=None) -> argparse.Namespace:
         p.error("--policy is required (zero, random, scripted, a shipped name or PATH.zip)")
     if args.episodes <= 0:
         p.error("--episodes must be positive")
-    if args.opponent == "selfplay" and not args.opponent_policy:
-        p.error("--opponent selfplay needs --opponent-policy")
+    check_task_arguments(p, args)
     return args
 
 
 def evaluate(args) -> dict:
-    from .env import make_env
-    from .evaluation import episode_seeds, run_episodes, summarize
-    from .policies import make_policy
-
     env = make_env(args.reset, args.opponent, args.opponent_policy)
     policy = make_policy(args.policy, env.sim.params, env.sim.command_limits, seed=args.seed)
     start = time.time()
@@ -71,8 +66,6 @@ def evaluate(args) -> dict:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    from .policies import PolicyError, shipped_policies
-
     if args.list:
         print("\n".join(shipped_policies()) or "no shipped policies")
         return 0
@@ -81,17 +74,7 @@ def main(argv=None) -> int:
         if out.parent and not out.parent.exists():
             print(f"evaluate: directory {out.parent} does not exist", file=sys.stderr)
             return 1
-    try:
-        summary = evaluate(args)
-    except (PolicyError, ValueError, OSError) as exc:
-        print(f"evaluate: {exc}".splitlines()[0], file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("evaluate: interrupted", file=sys.stderr)
-        return 130
-    text = json.dumps(summary, indent=2)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
+    summary = run_command("evaluate", lambda: evaluate(args), (PolicyError, ValueError, OSError), out=args.out)
     share = summary["no_touch_goal_share"]
     print(f"{args.policy} {args.reset}/{args.opponent}: win {summary['win_rate']:.3f} "
           f"[{summary['win_rate_ci95'][0]:.3f}, {summary['win_rate_ci95'][1]:.3f}]  own goal {summary['own_goal_rate']:.3f}  "

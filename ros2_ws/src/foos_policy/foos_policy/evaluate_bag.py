@@ -2,9 +2,19 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
+
+from foos_bag import BagError, read_ball_states, read_goals, read_joint_states, topics
+from foos_core.joints import joint_order, take_joints
+from foos_core.names import GOAL_TOPIC, TEAMS
+from foos_core.table_params import load_params
+from foos_sim import command_limits
+
+from .commands import run_command
+from .controller import missing_joints
+from .game import analyze_game, compare_games, play_game
+from .policies import PolicyError, make_policy
 
 DESCRIPTION = """\
 Compute a recorded game's statistics from a rosbag2 bag holding /ball/state, /joint_states and /sim/goal
@@ -30,46 +40,33 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--out", default=None, help="JSON file to write (default: print only)")
     p.add_argument("--params-file", default=None, help="table parameter file of the recorded table (default nominal)")
     p.add_argument("--compare-policy", default=None, help="also play this policy in-process for the same duration and compare")
-    p.add_argument("--team", choices=("home", "away"), default="home", help="team of --compare-policy (default home)")
+    p.add_argument("--team", choices=TEAMS, default="home", help="team of --compare-policy (default home)")
     p.add_argument("--seed", type=int, default=0, help="serve seed of the in-process game (default 0)")
     return p.parse_args(argv)
 
 
 def evaluate_bag(args) -> dict:
-    from foos_bag import bag_io
-    from foos_core.names import JOINT_NAMES
-    from foos_core.table_params import load_params
-
-    from .game import analyze_game
-
     path = Path(args.bag)
     if not path.exists():
         raise FileNotFoundError(f"no bag at {path}")
     params = load_params(args.params_file)
-    balls = bag_io.read_ball_states(path)
-    joints = bag_io.read_joint_states(path)
-    missing = [n for n in JOINT_NAMES if n not in joints.names]
+    balls = read_ball_states(path)
+    joints = read_joint_states(path)
+    order = joint_order(joints.names, allow_missing=True)
+    missing = missing_joints(order)
     if missing:
         raise ValueError(f"{path}: /joint_states lacks {len(missing)} rod joints (e.g. {missing[0]})")
-    q = joints.position[:, [joints.names.index(n) for n in JOINT_NAMES]]
-    if "/sim/goal" in bag_io.topics(path):
-        _, goal_teams = bag_io.read_goals(path)
-    else:
-        goal_teams = []
-    bad = [g for g in goal_teams if g not in ("home", "away")]
+    q = take_joints(joints.position, order)
+    has_goals = GOAL_TOPIC in topics(path)
+    goal_teams = read_goals(path)[1] if has_goals else []  # read_goals gives (stamps, teams)
+    bad = [g for g in goal_teams if g not in TEAMS]
     if bad:
-        raise ValueError(f"{path}: /sim/goal holds `{bad[0]}`, expected home or away")
+        raise ValueError(f"{path}: {GOAL_TOPIC} holds `{bad[0]}`, expected home or away")
     stats = analyze_game(params, balls.t, balls.position, balls.velocity, joints.t, q, goal_teams)
     stats["bag"] = str(path)
-    stats["goal_topic"] = "/sim/goal" in bag_io.topics(path)
+    stats["goal_topic"] = has_goals
     if args.compare_policy:
-        from foos_sim.simulation import TableSimulation
-
-        from .game import compare_games, play_game
-        from .policies import make_policy
-
-        sim = TableSimulation(args.params_file)
-        policy = make_policy(args.compare_policy, sim.params, sim.command_limits, seed=args.seed)
+        policy = make_policy(args.compare_policy, params, command_limits(params), seed=args.seed)
         in_process = play_game(policy, stats["duration_s"], seed=args.seed, team=args.team, params_file=args.params_file)
         stats["in_process"] = in_process
         stats["comparison"] = compare_games(stats, in_process)
@@ -78,24 +75,7 @@ def evaluate_bag(args) -> dict:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    try:
-        from foos_bag import BagError
-    except ImportError:
-        print("evaluate_bag: the foos_bag package is not installed (source scripts/env.sh)", file=sys.stderr)
-        return 1
-    from .policies import PolicyError
-
-    try:
-        stats = evaluate_bag(args)
-    except (BagError, PolicyError, ValueError, OSError) as exc:
-        print(f"evaluate_bag: {exc}".splitlines()[0], file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("evaluate_bag: interrupted", file=sys.stderr)
-        return 130
-    text = json.dumps(stats, indent=2)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
+    stats = run_command("evaluate_bag", lambda: evaluate_bag(args), (BagError, PolicyError, ValueError, OSError), out=args.out)
     share = stats["home_goal_share"]
     print(f"{stats['duration_s']:.1f} s: goals home {stats['goals_home']} - away {stats['goals_away']}"
           f" (home share {'n/a' if share is None else f'{share:.2f}'}), touches home {stats['touches_home']} away {stats['touches_away']},"

@@ -5,6 +5,7 @@ import math
 from typing import Callable, Optional
 
 import numpy as np
+from tqdm import tqdm
 
 Z95 = 1.959963984540054
 
@@ -35,7 +36,7 @@ def mean_interval(values, z: float = Z95) -> tuple[float, float, float]:
 
 def t_interval(values) -> tuple[float, float, float]:
     """Mean over a few seeds and its Student-t 95 % interval."""
-    from scipy import stats
+    from scipy import stats  # here: scipy.stats takes most of a second to import, and only `report` needs it
 
     v = np.asarray(values, dtype=float)
     m = float(v.mean())
@@ -52,8 +53,6 @@ def episode_seeds(seed: int, episodes: int) -> list[int]:
 
 def run_episodes(env, act: Callable[[np.ndarray], np.ndarray], seeds: list[int], progress: bool = False,
                  desc: str = "evaluate") -> list[dict]:
-    from tqdm import tqdm
-
     results = []
     for s in tqdm(seeds, desc=desc, unit="ep", disable=not progress):
         obs, _ = env.reset(seed=s)

@@ -17,10 +17,15 @@ from dataclasses import dataclass
 from typing import Optional, Sequence
 
 import numpy as np
+from tqdm import tqdm
 
-from foos_core.names import JOINT_NAMES, RODS, TEAMS
+from foos_core.joints import joint_order
+from foos_core.names import JOINT_NAMES, RODS, TEAMS, rod_name, team_joint_names
+from foos_sim.sim_runner import Goal, RunnerConfig, SimRunner, StateSample
+from foos_sim.simulation import TableSimulation
 
 from .evaluation import wilson_interval
+from .observation import action_to_command, observe, other_team
 
 TOUCH_DV = 0.25      # m/s, velocity jump between samples that marks a hit
 TOUCH_MARGIN = 0.012  # m, slack around a figure (the ball moves up to ~5 cm between 100 Hz samples at speed)
@@ -40,12 +45,13 @@ def figures_of(params: dict) -> list[Figure]:
     layout = params["rods"]["layout"]
     figures = []
     for ti, team in enumerate(TEAMS):
-        for rod in RODS:
-            r = layout[f"{team}_{rod}"]
+        # the team's joints in command order: each rod's slide, then its rotation
+        joints = joint_order(JOINT_NAMES, team_joint_names(team)).reshape(len(RODS), 2)
+        for rod, (slide, rotate) in zip(RODS, joints):
+            r = layout[rod_name(team, rod)]
             n = int(r["figures"])
             for i in range(n):
-                figures.append(Figure(ti, float(r["y"]), (i - (n - 1) / 2) * float(r["spacing"]),
-                                      JOINT_NAMES.index(f"{team}_{rod}_slide"), JOINT_NAMES.index(f"{team}_{rod}_rotate")))
+                figures.append(Figure(ti, float(r["y"]), (i - (n - 1) / 2) * float(r["spacing"]), int(slide), int(rotate)))
     return figures
 
 
@@ -140,6 +146,7 @@ def analyze_game(params: dict, t: np.ndarray, ball_position: np.ndarray, ball_ve
 
 def _rate_test(count_a: int, count_b: int, time_a: float, time_b: float) -> float:
     """Two-sided p-value that two Poisson counts over times a and b share one rate (conditional binomial test)."""
+    # here: scipy.stats takes most of a second to import, and only --compare-policy needs it
     from scipy import stats
 
     n = count_a + count_b
@@ -177,13 +184,6 @@ def play_game_samples(policy, seconds: float, seed: int = 0, team: str = "home",
                       control_rate: float = 50.0, params_file: Optional[str] = None, progress: bool = False) -> dict:
     """The raw 100 Hz samples of an in-process game: t, ball_position, ball_velocity, joint_positions,
     joint_velocities, goals (scoring teams), goal_times and the table params."""
-    from tqdm import tqdm
-
-    from foos_sim.sim_runner import Goal, RunnerConfig, SimRunner, StateSample
-    from foos_sim.simulation import TableSimulation
-
-    from .observation import action_to_command, observe, other_team
-
     sim = TableSimulation(params_file)
     runner = SimRunner(sim, RunnerConfig(serve="random", seed=seed, publish_rate=100.0))
     period = 1.0 / control_rate

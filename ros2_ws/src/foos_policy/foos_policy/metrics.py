@@ -64,10 +64,10 @@ def read_metrics(path: str | Path) -> dict[str, np.ndarray]:
 def plot_metrics(metrics_path: str | Path, out_dir: str | Path, title: str = "") -> list[Path]:
     """The paper's Figures 6-12 analogues: smoothed return, length, win, lose, goal-termination rates
     against episodes, and return against episode length. Returns the written PNG paths."""
-    import matplotlib
+    import matplotlib  # here: matplotlib takes most of a second to import, and only a finished run plots
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # after use("Agg"): no display is needed
 
     m = read_metrics(metrics_path)
     out_dir = Path(out_dir)

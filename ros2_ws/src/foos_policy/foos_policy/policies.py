@@ -7,8 +7,14 @@ from pathlib import Path
 from typing import Optional
 
 import numpy as np
+from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+
+from foos_core.names import COMMAND_SIZE
+from foos_core.table_params import load_params
+from foos_sim import command_limits as params_command_limits
 
 from .observation import ACTION_LIMIT
+from .scripted import ScriptedPolicy
 
 BASELINES = ("zero", "random", "scripted")
 
@@ -21,10 +27,8 @@ def shipped_dirs() -> list[Path]:
     """Where shipped policies live: the installed share directory, then the source tree."""
     dirs = []
     try:
-        from ament_index_python.packages import get_package_share_directory
-
         dirs.append(Path(get_package_share_directory("foos_policy")) / "policies")
-    except Exception:  # ROS-free use, or the package is not installed: the source tree still has them
+    except (PackageNotFoundError, OSError):  # not installed, or no workspace sourced: the source tree still has them
         pass
     dirs.append(Path(__file__).resolve().parents[1] / "policies")
     return [d for d in dirs if d.is_dir()]
@@ -70,10 +74,11 @@ def algo_of(path: Path) -> str:
 def load_model(spec: str | Path):
     path = resolve_policy(str(spec))
     algo = algo_of(path)
+    # SB3 is imported here, not at the top: torch takes seconds to import, and a command's --help need not wait.
     if algo == "tqc":
-        from sb3_contrib import TQC as Algo
+        from sb3_contrib import TQC as Algo  # torch: seconds to import
     else:
-        from stable_baselines3 import SAC as Algo
+        from stable_baselines3 import SAC as Algo  # torch: seconds to import
     try:
         return Algo.load(path, device="cpu")
     except Exception as exc:  # a damaged zip fails in many ways inside SB3/torch
@@ -93,7 +98,7 @@ class ZeroPolicy(Policy):
     name = "zero"
 
     def predict(self, obs):
-        return np.zeros(8, np.float32)
+        return np.zeros(COMMAND_SIZE, np.float32)
 
 
 class RandomPolicy(Policy):
@@ -103,15 +108,13 @@ class RandomPolicy(Policy):
         self.rng = np.random.default_rng(seed)
 
     def predict(self, obs):
-        return self.rng.uniform(-ACTION_LIMIT, ACTION_LIMIT, 8).astype(np.float32)
+        return self.rng.uniform(-ACTION_LIMIT, ACTION_LIMIT, COMMAND_SIZE).astype(np.float32)
 
 
 class ScriptedBaseline(Policy):
     name = "scripted"
 
     def __init__(self, params: dict, command_limits):
-        from .scripted import ScriptedPolicy
-
         self.policy = ScriptedPolicy(params, command_limits)
 
     def predict(self, obs):
@@ -130,15 +133,14 @@ class ModelPolicy(Policy):
 
 
 def make_policy(spec: str, params: Optional[dict] = None, command_limits=None, seed: int = 0) -> Policy:
+    """The policy `spec` names; the scripted baseline plays the table `params` describe (nominal by default)
+    with the drives' `command_limits` (those of `params` by default)."""
     if spec == "zero":
         return ZeroPolicy()
     if spec == "random":
         return RandomPolicy(seed)
     if spec == "scripted":
-        if params is None or command_limits is None:
-            from foos_sim.simulation import TableSimulation
-
-            sim = TableSimulation()
-            params, command_limits = sim.params, sim.command_limits
-        return ScriptedBaseline(params, command_limits)
+        params = load_params() if params is None else params
+        limits = params_command_limits(params) if command_limits is None else command_limits
+        return ScriptedBaseline(params, limits)
     return ModelPolicy(spec)

@@ -16,15 +16,15 @@ import rclpy
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.duration import Duration
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
-from foos_core import node_signals
-from foos_core.names import TEAMS
-from foos_sim.simulation import TableSimulation
+from foos_core.names import BALL_STATE_TOPIC, COMMAND_SIZE, JOINT_STATES_TOPIC, TEAMS, command_topic
+from foos_core.nodes import run_node
+from foos_core.stamps import stamp_to_seconds
+from foos_core.table_params import load_params
+from foos_sim import command_limits
 
 from .controller import PolicyController, StateError, ball_sample, joint_sample
 from .policies import PolicyError, make_policy
@@ -41,10 +41,6 @@ PARAMETERS = (
 )
 
 
-def _seconds(stamp) -> float:
-    return Time.from_msg(stamp).nanoseconds * 1e-9
-
-
 class PolicyNode(Node):
     def __init__(self):
         super().__init__("policy_node")
@@ -57,14 +53,15 @@ class PolicyNode(Node):
         rate = float(param("control_rate"))
         if not rate > 0:
             raise ValueError(f"control_rate must be positive, got {rate}")
-        sim = TableSimulation(param("params_file") or None)  # only for the drive limits and figure layout
-        policy = make_policy(str(param("policy")), sim.params, sim.command_limits, seed=int(param("seed")))
-        self.controller = PolicyController(policy, team, sim.command_limits, float(param("stale_timeout")))
+        params = load_params(param("params_file") or None)  # the drive limits and the figure layout
+        limits = command_limits(params)
+        policy = make_policy(str(param("policy")), params, limits, seed=int(param("seed")))
+        self.controller = PolicyController(policy, team, limits, float(param("stale_timeout")))
         self.team = team
-        self.command_pub = self.create_publisher(Float64MultiArray, f"/{team}/rods/command", 10)
+        self.command_pub = self.create_publisher(Float64MultiArray, command_topic(team), 10)
         self.latency_pub = self.create_publisher(Float64, f"/{team}/policy/latency", 10)
-        self.create_subscription(Odometry, "/ball/state", self.on_ball, 10)
-        self.create_subscription(JointState, "/joint_states", self.on_joints, 10)
+        self.create_subscription(Odometry, BALL_STATE_TOPIC, self.on_ball, 10)
+        self.create_subscription(JointState, JOINT_STATES_TOPIC, self.on_joints, 10)
         self.create_timer(1.0 / rate, self.on_tick)
         self.create_timer(float(param("latency_period")), self.report_latency)
         self.get_logger().info(f"{policy.name} plays {team} at {rate:g} Hz")
@@ -72,13 +69,13 @@ class PolicyNode(Node):
     def on_ball(self, msg: Odometry) -> None:
         p, v = msg.pose.pose.position, msg.twist.twist.linear
         try:
-            self.controller.ball = ball_sample(_seconds(msg.header.stamp), (p.x, p.y, p.z), (v.x, v.y, v.z))
+            self.controller.ball = ball_sample(stamp_to_seconds(msg.header.stamp), (p.x, p.y, p.z), (v.x, v.y, v.z))
         except StateError as error:
             self.get_logger().warning(f"ignored: {error}", throttle_duration_sec=1.0)
 
     def on_joints(self, msg: JointState) -> None:
         try:
-            self.controller.joints = joint_sample(_seconds(msg.header.stamp), msg.name, msg.position, msg.velocity)
+            self.controller.joints = joint_sample(stamp_to_seconds(msg.header.stamp), msg.name, msg.position, msg.velocity)
         except StateError as error:
             self.get_logger().warning(f"ignored: {error}", throttle_duration_sec=1.0)
 
@@ -102,31 +99,14 @@ class PolicyNode(Node):
         It waits for the subscribers (the drives, a recorder) to acknowledge it: a sample still queued, or
         lost and due to be sent again, goes out only from a publisher that still exists."""
         if rclpy.ok():
-            self.command_pub.publish(Float64MultiArray(data=[0.0] * 8))
+            self.command_pub.publish(Float64MultiArray(data=[0.0] * COMMAND_SIZE))
             if not self.command_pub.wait_for_all_acked(Duration(seconds=STOP_ACK_TIMEOUT_S)):
                 self.get_logger().warning(f"the last zero command was not acknowledged within "
                                           f"{STOP_ACK_TIMEOUT_S:g} s; the table's command watchdog stops the rods")
 
 
 def main(args=None) -> int:
-    stop = node_signals.init(args)
-    node = None
-    try:
-        node = PolicyNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        node_signals.spin_until_stopped(executor, stop)
-    except KeyboardInterrupt:  # a second Ctrl-C
-        pass
-    except (PolicyError, ValueError, TypeError) as error:
-        print(f"policy_node: {error}".splitlines()[0], file=sys.stderr)
-        return 2
-    finally:
-        if node is not None:
-            node.stop_rods()
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node("policy_node", PolicyNode, errors=(PolicyError, ValueError, TypeError), on_exit=PolicyNode.stop_rods, args=args)
 
 
 if __name__ == "__main__":

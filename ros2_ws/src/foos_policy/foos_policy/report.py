@@ -16,6 +16,16 @@ from pathlib import Path
 
 from .evaluation import t_interval, wilson_interval
 
+POLICY_COLUMNS = ("policy", "reset / opponent", "training budget", "episodes", "win rate [95 % CI]", "own-goal rate",
+                  "mean length (steps)", "touches / episode", "goals after touch", "no-touch share of goals")
+SEEDS_COLUMNS = ("algorithm (all seeds)", "reset / opponent", "seeds", "win rate mean over seeds [t 95 % CI]",
+                 "pooled win rate [Wilson 95 % CI]", "pooled own-goal rate", "touches / episode")
+
+
+def _header(columns: tuple[str, ...]) -> list[str]:
+    """A Markdown table's header row and its separator."""
+    return ["| " + " | ".join(columns) + " |", "|---" * len(columns) + "|"]
+
 
 def _ci(pair) -> str:
     return "n/a" if not pair else f"[{pair[0]:.2f}, {pair[1]:.2f}]"
@@ -36,10 +46,7 @@ def load_runs(dirs: list[str]) -> dict[str, dict]:
 
 
 def table(evals: list[dict], runs: dict[str, dict]) -> str:
-    lines = [
-        "| policy | reset / opponent | training budget | episodes | win rate [95 % CI] | own-goal rate | mean length (steps) | touches / episode | goals after touch | no-touch share of goals |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
+    lines = _header(POLICY_COLUMNS)
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for s in evals:
         name = Path(str(s["policy"])).stem
@@ -55,8 +62,7 @@ def table(evals: list[dict], runs: dict[str, dict]) -> str:
     multi = {k: v for k, v in groups.items() if len(v) >= 2}
     if multi:
         out.append("")
-        out.append("| algorithm (all seeds) | reset / opponent | seeds | win rate mean over seeds [t 95 % CI] | pooled win rate [Wilson 95 % CI] | pooled own-goal rate | touches / episode |")
-        out.append("|---|---|---|---|---|---|---|")
+        out.extend(_header(SEEDS_COLUMNS))
         for (stem, reset, opponent), rows in sorted(multi.items()):
             rates = [r["win_rate"] for r in rows]
             mean, lo, hi = t_interval(rates)

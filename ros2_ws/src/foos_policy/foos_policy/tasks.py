@@ -11,7 +11,11 @@ from typing import Optional, Protocol
 
 import numpy as np
 
+from foos_core.names import JOINT_NAMES
+
 from .observation import ACTION_LIMIT
+from .policies import load_model
+from .scripted import ScriptedPolicy
 
 RESETS = ("paper", "hardened")
 OPPONENTS = ("none", "scripted", "selfplay", "lifted")
@@ -113,13 +117,9 @@ class LiftedOpponent:
     serve's way (how an empty opponent half lets the paper's serve score)."""
 
     def __init__(self, params: dict, command_limits):
-        from .scripted import ScriptedPolicy
-
         self.policy = ScriptedPolicy(params, command_limits, active=())
 
     def initial_joint_positions(self) -> np.ndarray:
-        from foos_core.names import JOINT_NAMES
-
         # own view +pi/2 (ScriptedPolicy.LIFTED) is -pi/2 in the table frame for the mirrored away team
         return np.array([-np.pi / 2 if n.startswith("away_") and n.endswith("_rotate") else 0.0 for n in JOINT_NAMES])
 
@@ -131,8 +131,6 @@ class ScriptedOpponent:
     """A goalie and defence that track the ball and clear it; the away midfield and attack are lifted."""
 
     def __init__(self, params: dict, command_limits):
-        from .scripted import ScriptedPolicy
-
         self.policy = ScriptedPolicy(params, command_limits, active=("goalie", "defence"))
 
     def act(self, obs: np.ndarray) -> np.ndarray:
@@ -143,8 +141,6 @@ class FrozenPolicyOpponent:
     """Self-play: a saved SB3 policy plays the away rods through the mirrored observation."""
 
     def __init__(self, path: str | Path):
-        from .policies import load_model
-
         self.model = load_model(path)
 
     def act(self, obs: np.ndarray) -> np.ndarray:

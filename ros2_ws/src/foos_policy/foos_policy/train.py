@@ -8,7 +8,11 @@ import sys
 import time
 from pathlib import Path
 
-from .tasks import OPPONENTS, RESETS
+from tqdm import tqdm
+
+from .commands import add_task_arguments, check_task_arguments, run_command, write_json
+from .env import make_env
+from .metrics import MetricsWriter, plot_metrics, summarize_tail
 
 DESCRIPTION = """\
 Train SAC or TQC (stable-baselines3 / sb3-contrib) for the home team on the foosball twin.
@@ -35,10 +39,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="train", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--algo", choices=("sac", "tqc"), default="sac", help="learning algorithm (default sac)")
     p.add_argument("--steps", type=int, default=20000, help="environment steps to train (default 20000; ~85 steps/s on a free core)")
-    p.add_argument("--reset", choices=RESETS, default="paper", help="paper: the paper's centre serve; hardened: random still ball (default paper)")
-    p.add_argument("--opponent", choices=OPPONENTS, default="none",
-                   help="none: passive away rods; scripted: tracking goalie+defence; selfplay: a frozen policy (default none)")
-    p.add_argument("--opponent-policy", default=None, help="PATH.zip or shipped name of the frozen away policy for --opponent selfplay")
+    add_task_arguments(p)
     p.add_argument("--seed", type=int, default=0, help="seed of the env, the network init and the exploration (default 0)")
     p.add_argument("--out", required=True, help="output directory (created; files in it are overwritten)")
     p.add_argument("--name", default=None, help="file stem of the saved policy (default ALGO_RESET_OPPONENT_sSEED)")
@@ -57,8 +58,7 @@ def parse_args(argv=None) -> argparse.Namespace:
         p.error("--steps must be positive")
     if args.n_envs <= 0:
         p.error("--n-envs must be positive")
-    if args.opponent == "selfplay" and not args.opponent_policy:
-        p.error("--opponent selfplay needs --opponent-policy PATH.zip")
+    check_task_arguments(p, args)
     return args
 
 
@@ -67,6 +67,7 @@ def default_name(algo: str, reset: str, opponent: str, seed: int) -> str:
 
 
 def build_model(args, env, tb_dir: Path):
+    # torch and SB3 are imported in the functions that use them: they take seconds, and `train --help` need not wait.
     import torch
 
     torch.set_num_threads(args.threads)
@@ -76,16 +77,17 @@ def build_model(args, env, tb_dir: Path):
         tensorboard_log=str(tb_dir), policy_kwargs=dict(net_arch=list(args.net)),
     )
     if args.algo == "tqc":
-        from sb3_contrib import TQC
+        from sb3_contrib import TQC  # torch: seconds to import
 
         return TQC(**kwargs)
-    from stable_baselines3 import SAC
+    from stable_baselines3 import SAC  # torch: seconds to import
 
     return SAC(**kwargs)
 
 
 def make_callbacks(metrics, total: int, progress: bool, checkpoint_dir: Path, checkpoint_every: int, name: str, n_envs: int,
                    time_limit_s: float = 0.0):
+    # torch: seconds to import
     from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
 
     class EpisodeMetrics(BaseCallback):
@@ -103,8 +105,6 @@ def make_callbacks(metrics, total: int, progress: bool, checkpoint_dir: Path, ch
 
     class Progress(BaseCallback):
         def _on_training_start(self) -> None:
-            from tqdm import tqdm
-
             self.bar = tqdm(total=total, unit="step", desc=name, smoothing=0.05, disable=not progress, mininterval=2.0)
             self.start = time.time()
 
@@ -123,10 +123,7 @@ def make_callbacks(metrics, total: int, progress: bool, checkpoint_dir: Path, ch
 
 
 def train(args) -> dict:
-    from stable_baselines3.common.vec_env import DummyVecEnv
-
-    from .env import make_env
-    from .metrics import MetricsWriter, plot_metrics, summarize_tail
+    from stable_baselines3.common.vec_env import DummyVecEnv  # torch: seconds to import
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -163,8 +160,8 @@ def train(args) -> dict:
     model.save(model_path)
     summary = {
         "name": name, "algo": args.algo, "reset": args.reset, "opponent": args.opponent, "seed": args.seed,
-        "steps_requested": args.steps, "time_limit_min": args.time_limit, "steps_done": int(model.num_timesteps), "interrupted": interrupted,
-        "wall_s": round(wall, 1), "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 1),
+        "steps_requested": args.steps, "time_limit_min": args.time_limit, "steps_done": int(model.num_timesteps),
+        "interrupted": interrupted, "wall_s": round(wall, 1), "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 1),
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
         "command": "train " + " ".join(sys.argv[1:]) if sys.argv else "",
         "model": str(model_path),
@@ -172,20 +169,14 @@ def train(args) -> dict:
     if metrics.episodes:
         plot_metrics(out / "metrics.csv", out / "figures", title=name)
         summary["final"] = summarize_tail(out / "metrics.csv")
-    (out / "run.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_json(out / "run.json", summary)
     return summary
 
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    try:
-        summary = train(args)
-    except (ValueError, OSError) as exc:
-        print(f"train: {exc}".splitlines()[0], file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("train: interrupted before the model existed; nothing saved", file=sys.stderr)
-        return 130
+    summary = run_command("train", lambda: train(args), (ValueError, OSError),
+                          interrupted="interrupted before the model existed; nothing saved")
     print(json.dumps({k: summary[k] for k in ("name", "steps_done", "wall_s", "steps_per_s", "model")}))
     if "final" in summary:
         print(json.dumps(summary["final"]))

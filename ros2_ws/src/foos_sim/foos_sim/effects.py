@@ -22,6 +22,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 EFFECT_NAMES = (
     "table_tilt",
     "rolling_resistance",
@@ -48,8 +50,6 @@ class Dent:
 
     def height(self, distance):
         """Surface height (m, negative in a dent) at a horizontal distance from the centre: a cosine bowl."""
-        import numpy as np
-
         d = np.asarray(distance, dtype=float)
         inside = d < self.radius
         return np.where(inside, -self.depth * 0.5 * (1.0 + np.cos(np.pi * np.minimum(d, self.radius) / self.radius)), 0.0)

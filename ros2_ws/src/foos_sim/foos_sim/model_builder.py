@@ -1,4 +1,4 @@
-"""MJCF of the table, generated from a parameter tree (foos_sim/params/*.yaml).
+"""MJCF of the table, generated from a parameter tree (foos_core.table_params: foos_core/params/*.yaml).
 
 Every ball contact is an explicit <pair>, so each has exactly the friction, condim and spring the
 parameter file asks for; nothing else in the model collides (rods are driven, figures of different
@@ -14,7 +14,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foos_core.names import AXES, BALL_BODY, BALL_JOINT, FIELD_GEOM, RODS, TEAMS, joint_name
+from foos_core.names import AXES, BALL_BODY, BALL_JOINT, FIELD_GEOM, JOINT_NAMES, RODS, TEAMS, joint_name
 from foos_core.table_params import load_params
 
 from . import effects as effects_mod
@@ -85,6 +85,17 @@ def discrete_damping_ratio(restitution: float, frequency: float, timestep: float
         else:
             high = middle
     return 0.5 * (low + high)
+
+
+def drive_speed_limit(params: dict, axis: str) -> float:
+    """The most a slide (m/s) or rotate (rad/s) drive is commanded: its actuator's ctrlrange."""
+    return float(params["rods"][f"{axis}_speed_limit"])
+
+
+def command_limits(params: dict) -> np.ndarray:
+    """One team's 8 drive limits in command order, read from the parameters without building a model
+    (a controller needs them; TableSimulation.command_limits reads the same off the built actuators)."""
+    return np.array([drive_speed_limit(params, axis) for _rod in RODS for axis in AXES])
 
 
 def _fmt(*values: float) -> str:
@@ -269,8 +280,8 @@ class TableModelBuilder:
                  contype=0, conaffinity=0)
             self.ball_contact_geoms += [(f"{name}_body", "figure"), (f"{name}_foot", "figure")]
         for joint, limit, gain, force in (
-            (slide, r["slide_speed_limit"], r["slide_gain"], r["slide_force_limit"]),
-            (rotate, r["rotate_speed_limit"], r["rotate_gain"], r["rotate_torque_limit"]),
+            (slide, drive_speed_limit(p, "slide"), r["slide_gain"], r["slide_force_limit"]),
+            (rotate, drive_speed_limit(p, "rotate"), r["rotate_gain"], r["rotate_torque_limit"]),
         ):
             _sub(actuators, "velocity", name=joint, joint=joint, kv=_fmt(gain), ctrlrange=_fmt(-limit, limit),
                  forcerange=_fmt(-force, force))
@@ -324,8 +335,6 @@ def ball_model_from_params(params: dict) -> mujoco.MjModel:
 
 
 def _check_actuator_order(model: mujoco.MjModel) -> None:
-    from foos_core.names import JOINT_NAMES
-
     names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i) for i in range(model.nu))
     if set(names) != set(JOINT_NAMES):
         raise ValueError(f"model actuators {names} are not the contract's 16 rod joints")

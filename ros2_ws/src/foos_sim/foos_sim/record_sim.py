@@ -16,16 +16,22 @@ import argparse
 import sys
 
 import numpy as np
+from tqdm import tqdm
 
 from foos_bag import (
-    GOAL_TOPIC,
+    STORAGE_SUFFIX,
     STRING,
     BagError,
     BagWriter,
+    typestore,
     write_ball_detections,
     write_ball_states,
     write_joint_states,
 )
+from foos_core.names import GOAL_TOPIC, JOINT_NAMES
+
+from .sim_runner import SERVES, Detection, Goal, RunnerConfig, SimRunner, StateSample
+from .simulation import TableSimulation
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -39,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("output", help="bag directory to create (refused if it exists)")
     p.add_argument("--duration", type=float, default=10.0, help="simulated seconds (default 10)")
     p.add_argument("--params-file", default="", help="table parameter file for foos_sim (default: the nominal table)")
-    p.add_argument("--serve", choices=("none", "center", "random"), default="random", help="how balls are put in play")
+    p.add_argument("--serve", choices=SERVES, default="random", help="how balls are put in play")
     p.add_argument("--ball", type=float, nargs=4, metavar=("X", "Y", "VX", "VY"), default=(0.0, 0.0, 0.0, 0.0),
                    help="initial ball state for --serve none")
     p.add_argument("--seed", type=int, default=0, help="random seed (serves, noise, dropouts)")
@@ -50,17 +56,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--publish-rate", type=float, default=100.0, help="joint state rate, Hz (default 100)")
     p.add_argument("--truth-topic", default="", help="also write the ground-truth ball state on this topic")
     p.add_argument("--start-time", type=float, default=0.0, help="time of the first sample, s since the epoch")
-    p.add_argument("-s", "--storage", choices=("mcap", "sqlite3"), default="mcap", help="bag storage (default mcap)")
+    p.add_argument("-s", "--storage", choices=tuple(STORAGE_SUFFIX), default="mcap", help="bag storage (default mcap)")
     return p
 
 
 def simulate(ns: argparse.Namespace):
-    from tqdm import tqdm
-
-    from foos_core.names import JOINT_NAMES
-    from foos_sim.sim_runner import Detection, Goal, RunnerConfig, SimRunner, StateSample
-    from foos_sim.simulation import TableSimulation
-
     config = RunnerConfig(
         publish_rate=ns.publish_rate,
         detection_rate=ns.detection_rate,
@@ -116,8 +116,6 @@ def write_bag(ns: argparse.Namespace, joint_names, samples, detections, goals) -
                     topic=ns.truth_topic,
                 )
         bag.add_topic(GOAL_TOPIC, STRING)
-        from foos_bag import typestore
-
         string = typestore().types[STRING]
         for g in goals:
             bag.write(GOAL_TOPIC, int(round((t0 + g.time) * 1e9)), string(data=g.team))

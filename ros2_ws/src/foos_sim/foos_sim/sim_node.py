@@ -29,14 +29,25 @@ from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
 from foos_core import node_signals
-from foos_core.names import JOINT_NAMES, TEAMS
+from foos_core.names import (
+    BALL_DETECTION_TOPIC,
+    BALL_FRAME,
+    BALL_STATE_TOPIC,
+    CLOCK_TOPIC,
+    GOAL_TOPIC,
+    JOINT_NAMES,
+    JOINT_STATES_TOPIC,
+    TABLE_FRAME,
+    TEAMS,
+    command_topic,
+)
+from foos_core.nodes import run_node
 from foos_core.table_params import ParamsError
 
 from .sim_runner import Detection, Goal, RunnerConfig, SimRunner, StateSample
 from .simulation import CommandError, TableSimulation
 
-FRAME = "table"
-BEHIND_RESYNC_S = 0.5
+BEHIND_RESYNC_S = 0.5  # s: when pacing falls this far behind the wall clock, stop trying to catch up
 PARAMETERS = (
     ("params_file", "", "table parameter file (YAML); empty = the nominal regulation table"),
     ("publish_rate", 100.0, "Hz of /joint_states and /ball/state (ground truth)"),
@@ -54,7 +65,7 @@ PARAMETERS = (
     ("detection_latency", 0.0, "s from a frame's capture to its detection's publication (stamp = capture)"),
     ("detection_dropout", 0.0, "probability that a frame yields no detection"),
     ("command_timeout", 0.5, "s without a command after which a team's rods are stopped (watchdog)"),
-)  # when pacing falls this far behind the wall clock, stop trying to catch up
+)
 
 
 class SimNode(Node):
@@ -87,14 +98,14 @@ class SimNode(Node):
         self._last_warning: dict[str, float] = {}
         self._stamp_base_ns = 0 if self.publish_clock else self.get_clock().now().nanoseconds
 
-        self.joint_pub = self.create_publisher(JointState, "/joint_states", 10)
-        self.state_pub = self.create_publisher(Odometry, "/ball/state", 10)
-        self.detection_pub = self.create_publisher(PointStamped, "/ball/detection", 10)
-        self.goal_pub = self.create_publisher(String, "/sim/goal", 10)
-        self.clock_pub = self.create_publisher(Clock, "/clock", 10) if self.publish_clock else None
+        self.joint_pub = self.create_publisher(JointState, JOINT_STATES_TOPIC, 10)
+        self.state_pub = self.create_publisher(Odometry, BALL_STATE_TOPIC, 10)
+        self.detection_pub = self.create_publisher(PointStamped, BALL_DETECTION_TOPIC, 10)
+        self.goal_pub = self.create_publisher(String, GOAL_TOPIC, 10)
+        self.clock_pub = self.create_publisher(Clock, CLOCK_TOPIC, 10) if self.publish_clock else None
         for team in TEAMS:
             self.create_subscription(
-                Float64MultiArray, f"/{team}/rods/command", lambda msg, team=team: self.on_command(team, msg), 10
+                Float64MultiArray, command_topic(team), lambda msg, team=team: self.on_command(team, msg), 10
             )
         self.create_service(Trigger, "/sim/reset", self.on_reset)
         self.get_logger().info(
@@ -109,10 +120,10 @@ class SimNode(Node):
         try:
             applied = self.runner.command(team, msg.data)
         except CommandError as error:
-            self.warn_throttled(f"/{team}/rods/command refused: {error}; rods keep their last command")
+            self.warn_throttled(f"{command_topic(team)} refused: {error}; rods keep their last command")
             return
         if any(abs(a - v) > 1e-12 for a, v in zip(applied, msg.data)):
-            self.get_logger().info(f"/{team}/rods/command clipped to the drive limits", throttle_duration_sec=5.0)
+            self.get_logger().info(f"{command_topic(team)} clipped to the drive limits", throttle_duration_sec=5.0)
 
     def warn_throttled(self, message: str, period: float = 1.0) -> None:
         """Warn once per period for each distinct message (rclpy throttles per call site, hiding others)."""
@@ -139,7 +150,7 @@ class SimNode(Node):
         elif isinstance(event, Detection):
             msg = PointStamped()
             msg.header.stamp = self.stamp(event.capture_time)
-            msg.header.frame_id = FRAME
+            msg.header.frame_id = TABLE_FRAME
             msg.point.x, msg.point.y, msg.point.z = (float(v) for v in event.position)
             self.detection_pub.publish(msg)
         elif isinstance(event, Goal):
@@ -161,8 +172,8 @@ class SimNode(Node):
         self.joint_pub.publish(joints)
         odom = Odometry()
         odom.header.stamp = stamp
-        odom.header.frame_id = FRAME
-        odom.child_frame_id = "ball"
+        odom.header.frame_id = TABLE_FRAME
+        odom.child_frame_id = BALL_FRAME
         p, v, w = sample.ball_position, sample.ball_velocity, sample.ball_angular_velocity
         odom.pose.pose.position.x, odom.pose.pose.position.y, odom.pose.pose.position.z = float(p[0]), float(p[1]), float(p[2])
         odom.pose.pose.orientation.w = 1.0
@@ -195,23 +206,10 @@ class SimNode(Node):
 
 
 def main(args=None) -> int:
-    stop = node_signals.init(args)
-    node = None
-    try:
-        node = SimNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        node.run(executor, stop)
-    except KeyboardInterrupt:  # a second Ctrl-C
-        pass
-    except (ParamsError, ValueError, TypeError, InvalidParameterTypeException, InvalidParameterValueException) as error:
-        print(f"sim_node: {error}", file=sys.stderr)
-        return 2
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(
+        "sim_node", SimNode, run=SimNode.run, args=args,
+        errors=(ParamsError, ValueError, TypeError, InvalidParameterTypeException, InvalidParameterValueException),
+    )
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ from typing import Optional, Sequence
 import mujoco
 import numpy as np
 
-from foos_core.names import BALL_JOINT, COMMAND_SIZE, JOINT_NAMES, TEAMS, team_joint_names
+from foos_core.names import BALL_JOINT, COMMAND_SIZE, JOINT_NAMES, TEAMS, figure_team, team_joint_names
 from foos_core.table_params import load_params
 
 from .model_builder import model_from_params
@@ -60,6 +60,9 @@ class TableSimulation:
             team: np.array([self.model.actuator(name).id for name in team_joint_names(team)]) for team in TEAMS
         }
         self.command_limits = np.array([self.model.actuator(n).ctrlrange[1] for n in team_joint_names("home")])
+        # For each team (TEAMS order), which geoms are its figures', indexed by geom id.
+        geom_teams = [figure_team(self.model.geom(g).name) for g in range(self.model.ngeom)]
+        self._team_figure_geoms = tuple(np.array([owner == team for owner in geom_teams]) for team in TEAMS)
         self.reset()
 
     # --- state ---------------------------------------------------------------------------------
@@ -90,6 +93,21 @@ class TableSimulation:
 
     def joint_efforts(self) -> np.ndarray:
         return self.data.actuator_force[np.concatenate([self._team_ctrl[t] for t in TEAMS])].copy()
+
+    def figure_contacts(self) -> tuple[bool, bool]:
+        """Whether the ball touches a home figure and an away figure now (TEAMS order), from the
+        contacts of the last step. Every contact of the model is one of the ball's pairs, so a contact
+        with a figure geom is the ball touching that figure."""
+        ncon = self.data.ncon
+        if ncon == 0:
+            return False, False
+        geoms = self.data.contact.geom[:ncon]
+        home, away = (bool(figures[geoms].any()) for figures in self._team_figure_geoms)
+        return home, away
+
+    def state_is_finite(self) -> bool:
+        """False once the physics has diverged (a NaN or infinite position anywhere in the model)."""
+        return bool(np.all(np.isfinite(self.data.qpos)))
 
     # --- control -------------------------------------------------------------------------------
     def validate_command(self, command: Sequence[float]) -> np.ndarray:

@@ -1,0 +1,51 @@
+"""What the offline commands (train, evaluate, evaluate_bag) share: the task options, how they fail and
+the JSON they write."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Callable, TypeVar
+
+from .tasks import OPPONENTS, RESETS
+
+T = TypeVar("T")
+
+
+def add_task_arguments(parser: argparse.ArgumentParser) -> None:
+    """--reset, --opponent and --opponent-policy: the task a policy is trained or evaluated on."""
+    parser.add_argument("--reset", choices=RESETS, default="paper",
+                        help="paper: the paper's centre serve; hardened: a nearly still ball in front of a home rod (default paper)")
+    parser.add_argument("--opponent", choices=OPPONENTS, default="none",
+                        help="none: passive away rods; scripted: tracking goalie+defence; selfplay: a frozen policy; "
+                             "lifted: every away rod horizontal (default none)")
+    parser.add_argument("--opponent-policy", default=None,
+                        help="PATH.zip or shipped name of the frozen away policy for --opponent selfplay")
+
+
+def check_task_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    if args.opponent == "selfplay" and not args.opponent_policy:
+        parser.error("--opponent selfplay needs --opponent-policy PATH.zip")
+
+
+def run_command(prog: str, work: Callable[[], T], errors: tuple[type[Exception], ...],
+                interrupted: str = "interrupted", out: str | Path | None = None) -> T:
+    """work()'s result, also written to `out` as JSON when given. An error of the `errors` kinds is one line
+    on stderr and exit code 1 (the user's input was wrong, no traceback); Ctrl-C says `interrupted` and
+    exits with 130."""
+    try:
+        result = work()
+    except errors as exc:
+        print(f"{prog}: {exc}".splitlines()[0], file=sys.stderr)
+        raise SystemExit(1) from None
+    except KeyboardInterrupt:
+        print(f"{prog}: {interrupted}", file=sys.stderr)
+        raise SystemExit(130) from None
+    if out:
+        write_json(out, result)
+    return result
+
+
+def write_json(path: str | Path, data: dict) -> None:
+    Path(path).write_text(json.dumps(data, indent=2) + "\n")
