@@ -12,23 +12,10 @@ from pathlib import Path
 
 import pytest
 
+from ..user_env import workspace_env
+
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
-_ENV: dict[str, str] | None = None
-
-
-def workspace_env() -> dict[str, str]:
-    """The environment a shell gets from `source scripts/env.sh` (computed once)."""
-    global _ENV
-    if _ENV is None:
-        out = subprocess.run(
-            ["bash", "-c", f"source {ROOT}/scripts/env.sh >/dev/null && env -0"],
-            check=True, capture_output=True, cwd=ROOT,
-        ).stdout.decode()
-        _ENV = dict(item.split("=", 1) for item in out.split("\0") if "=" in item)
-        _ENV["PYTHONUNBUFFERED"] = "1"
-        _ENV["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
-    return dict(_ENV)
 
 
 class Proc:

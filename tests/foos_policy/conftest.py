@@ -3,24 +3,16 @@ import are in helpers.py)."""
 from __future__ import annotations
 
 import subprocess
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
+from ..user_env import workspace_env
 
 
 @pytest.fixture(scope="session")
 def ros_env() -> dict:
-    """The environment a user gets from `source scripts/env.sh` (read once from a bash that sources it)."""
-    out = subprocess.run(
-        ["bash", "-c", f"source {ROOT}/scripts/env.sh >/dev/null && env -0"],
-        check=True, capture_output=True, cwd=ROOT,
-    ).stdout
-    env = dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
-    env["OMP_NUM_THREADS"] = "1"
-    env["PYTHONUNBUFFERED"] = "1"
-    return env
+    """The environment a user gets from `source scripts/env.sh`."""
+    return workspace_env()
 
 
 @pytest.fixture

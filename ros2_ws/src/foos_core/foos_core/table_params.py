@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-import yaml
+from .yaml_files import read_mapping
 
 PARAMS_DIR = Path(__file__).resolve().parent / "params"
 DEFAULT_PARAMS_FILE = PARAMS_DIR / "regulation_table.yaml"
@@ -47,12 +47,7 @@ def load_params(params_file: str | Path | None = None, _seen: tuple = ()) -> dic
         raise ParamsError(f"{path}: `base` files form a cycle")
     if not path.is_file():
         raise ParamsError(f"parameter file not found: {path}")
-    try:
-        tree = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as error:
-        raise ParamsError(f"{path}: not valid YAML ({error})".replace("\n", " ")) from None
-    if not isinstance(tree, dict):
-        raise ParamsError(f"{path}: a parameter file is a YAML mapping")
+    tree = read_mapping(path, "parameter file", ParamsError)
     base = tree.pop("base", None)
     if base is not None:
         tree = _deep_merge(load_params(_resolve_base(str(base), path), _seen + (path,)), tree)
