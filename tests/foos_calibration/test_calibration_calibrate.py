@@ -19,7 +19,8 @@ from foos_sim import load_model
 from foos_sim.effects import EFFECT_NAMES
 
 TOLERANCE = {  # looser than the benchmark's targets: one 60 s trial, not a median
-    "table_tilt": lambda f, t: math.hypot(f["slope_x"] - t["slope_x"], f["slope_y"] - t["slope_y"]) <= 0.2 * math.hypot(t["slope_x"], t["slope_y"]),
+    "table_tilt": lambda f, t: (math.hypot(f["slope_x"] - t["slope_x"], f["slope_y"] - t["slope_y"])
+                               <= 0.2 * math.hypot(t["slope_x"], t["slope_y"])),
     "rolling_resistance": lambda f, t: abs(f["deceleration"] - t["deceleration"]) <= 0.15 * t["deceleration"],
     "viscous_damping": lambda f, t: abs(f["rate"] - t["rate"]) <= 0.35 * t["rate"],
     "air_drag": lambda f, t: abs(f["coefficient"] - t["coefficient"]) <= 0.35 * t["coefficient"],

@@ -34,7 +34,7 @@ def test_tilt_hidden_in_a_rendered_video_is_found(tmp_path, ros_env):
         "--width", "640", "--height", "480", "--params-file", str(table), "--seed", "3", "--quiet")
     run("foos_vision", "track_video", str(video), "--markers", str(tmp_path / "rolls.markers.yaml"),
         "--out", str(tmp_path / "bag"), "--quiet")
-    run("foos_sim", "calibrate", str(tmp_path / "bag"), "--out", str(tmp_path / "out"), "--max-starts", "10",
+    run("foos_calibration", "calibrate", str(tmp_path / "bag"), "--out", str(tmp_path / "out"), "--max-starts", "10",
         "--no-figures", "--quiet")
     report = json.loads((tmp_path / "out" / "report.json").read_text())
     found = {e["name"]: e["params"] for e in report["effects"]}

@@ -4,6 +4,9 @@ from __future__ import annotations
 import numpy as np
 
 from foos_bag import BagWriter, write_ball_detections, write_joint_states
+from foos_core.table_geometry import TableGeometry
+
+BALL_Z = TableGeometry.nominal().ball_centre_height  # m, the plane a camera reports the ball centre in
 
 
 def one_line_error(result, text):
@@ -20,6 +23,13 @@ def test_help_says_what_it_needs_and_writes(ros2_run):
     assert result.returncode == 0
     for text in ("/ball/detection", "report.json", "calibrated_table.yaml", "--out", "--base", "table_tilt"):
         assert text in result.stdout
+
+
+def test_the_former_foos_sim_command_says_where_it_moved_and_runs_there(ros2_run):
+    result = ros2_run("calibrate", "--help", package="foos_sim")
+    assert result.returncode == 0, result.stderr
+    assert "note: `ros2 run foos_sim calibrate` has moved to `ros2 run foos_calibration calibrate`" in result.stderr
+    assert "calibrated_table.yaml" in result.stdout and "--base" in result.stdout
 
 
 def test_missing_bag(ros2_run, tmp_path):
@@ -41,7 +51,7 @@ def test_bag_without_detections(ros2_run, tmp_path):
 def test_too_little_data(ros2_run, tmp_path):
     with BagWriter(tmp_path / "short") as w:
         t = np.arange(50) / 120
-        write_ball_detections(w, t, np.stack([t * 0.5, t * 0, t * 0 + 0.0175], axis=1))
+        write_ball_detections(w, t, np.stack([t * 0.5, t * 0, t * 0 + BALL_Z], axis=1))
     one_line_error(ros2_run("calibrate", str(tmp_path / "short"), "--out", str(tmp_path / "o")), "too little")
 
 
@@ -49,5 +59,5 @@ def test_no_rolling_data(ros2_run, tmp_path):
     # A ball lying still for 10 s: plenty of detections, nothing to calibrate on.
     with BagWriter(tmp_path / "still") as w:
         t = np.arange(1200) / 120
-        write_ball_detections(w, t, np.tile([0.1, 0.2, 0.0175], (1200, 1)) + np.random.default_rng(0).normal(0, 0.0015, (1200, 3)))
+        write_ball_detections(w, t, np.tile([0.1, 0.2, BALL_Z], (1200, 1)) + np.random.default_rng(0).normal(0, 0.0015, (1200, 3)))
     one_line_error(ros2_run("calibrate", str(tmp_path / "still"), "--out", str(tmp_path / "o")), "too little rolling data")

@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 from scipy.optimize import curve_fit
 
+from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 from foos_sim import load_model
 from foos_sim.model_builder import ball_model_from_params
 
-R = 0.0175
+R = TableGeometry.nominal().ball_radius
 
 
 def roll(effects, velocity=(0.0, 2.0), position=(0.0, -0.5), duration=0.5, params=None):

@@ -2,12 +2,18 @@
 is what a tracker would record."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from foos_bag import read_ball_detections, topics
 from foos_calibration import generate as gen
 from foos_calibration import surrogate
+from foos_calibration.fitting import SegmentBatch, fit_states
+from foos_calibration.tracks import analyse
+from foos_core.table_geometry import TableGeometry
+from foos_core.table_params import load_params
 
 
 def test_hidden_tilt_and_viscous_forces_match_the_surrogate_a_calibration_fits():
@@ -29,19 +35,13 @@ def test_hidden_tilt_and_viscous_forces_match_the_surrogate_a_calibration_fits()
 def test_the_point_models_slide_after_a_bounce_follows_mujoco(velocity):
     # After a wall bounce the MuJoCo ball slides until friction matches its spin. The fit's point model
     # has a slip for that; without it the segment after the bounce misfits by 0.2-5 mm.
-    from dataclasses import replace
-
-    from foos_calibration.fitting import SegmentBatch, fit_states
-    from foos_calibration.tracks import Field, analyse
-    from foos_core.table_params import load_params
-
     params = load_params()
     table = gen.HiddenTable(gen.HiddenEffects(), params)
     table.reset((0.0, 0.0), velocity)
     times, positions = table.roll(3.0)
     frames = np.arange(0.0, times[-1], 1 / 120)
     xy = np.stack([np.interp(frames, times, positions[:, k]) for k in (0, 1)], axis=1)
-    slides = [s for s in analyse(frames, xy, Field.from_params(params)).segments if s.slide]
+    slides = [s for s in analyse(frames, xy, TableGeometry.from_params(params)).segments if s.slide]
     assert slides
     segment = slides[0]
     with_slip = fit_states(SegmentBatch([segment]), surrogate.nominal_theta())

@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
+from foos_core.table_params import ParamsError
+
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -56,14 +58,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return fail(f"bag not found: {bag}")
     if args.max_starts < 1:
         return fail("--max-starts must be at least 1")
+    # Loaded only now, after the thread limits above, so that `--help` and a bad argument answer at once.
     try:
-        from foos_bag import BagError, read_ball_detections
+        from foos_bag import BagError, read_ball_detections  # the bag reader and numpy: half a second
     except ImportError as error:
         return fail(f"foos_bag is not importable ({error}); source scripts/env.sh")
-    from foos_core.table_params import ParamsError
-
-    from .pipeline import Options, calibrate, plain_summary
-    from .tracks import DataError
+    from .pipeline import DataError, Options, calibrate, plain_summary  # scipy, MuJoCo, matplotlib: seconds
 
     progress = (lambda message: None) if args.quiet else (lambda message: print(f"[calibrate] {message}", file=sys.stderr, flush=True))
     try:

@@ -9,8 +9,17 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from foos_core.table_geometry import TableGeometry  # noqa: E402
+
 from . import surrogate  # noqa: E402
-from .tracks import Field, Measured, _linear_velocity, normal_speed  # noqa: E402
+from .tracks import Measured, _linear_velocity, normal_speed  # noqa: E402
+
+
+def _save(fig, path: Path) -> None:
+    """Every figure of the report the same way: tight, at 110 dpi, then closed (pyplot holds it until then)."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def local_kinematics(measured: Measured, window: float = 0.25, stride: int = 6):
@@ -35,8 +44,8 @@ def local_kinematics(measured: Measured, window: float = 0.25, stride: int = 6):
     return np.array(P), np.array(V), np.array(A)
 
 
-def _field_outline(ax, field: Field) -> None:
-    hx, hy, gw = field.half_x, field.half_y, field.goal_half_width
+def _field_outline(ax, geometry: TableGeometry) -> None:
+    hx, hy, gw = geometry.half_width, geometry.half_length, geometry.goal_half_width
     ax.plot([-hx, hx, hx, -hx, -hx], [-hy, -hy, hy, hy, -hy], color="k", lw=1)
     for s in (-1, 1):
         ax.plot([-gw, gw], [s * hy, s * hy], color="w", lw=3)
@@ -47,23 +56,23 @@ def _field_outline(ax, field: Field) -> None:
     ax.set_ylabel("y (m)")
 
 
-def residual_map(measured: Measured, field: Field, nominal_theta: np.ndarray, found: list[dict], path: Path) -> None:
+def residual_map(measured: Measured, geometry: TableGeometry, nominal_theta: np.ndarray, found: list[dict], path: Path) -> None:
     P, V, A = local_kinematics(measured)
     fig, ax = plt.subplots(figsize=(5.2, 8))
     if len(P):
         R = A - surrogate.acceleration(P, V, np.tile(nominal_theta, (len(P), 1)))
         cell = 0.085
-        ix = np.floor((P[:, 0] + field.half_x) / cell).astype(int)
-        iy = np.floor((P[:, 1] + field.half_y) / cell).astype(int)
-        nx, ny = int(np.ceil(2 * field.half_x / cell)), int(np.ceil(2 * field.half_y / cell))
+        ix = np.floor((P[:, 0] + geometry.half_width) / cell).astype(int)
+        iy = np.floor((P[:, 1] + geometry.half_length) / cell).astype(int)
+        nx, ny = int(np.ceil(2 * geometry.half_width / cell)), int(np.ceil(2 * geometry.half_length / cell))
         ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
         sum_r = np.zeros((ny, nx, 2))
         count = np.zeros((ny, nx))
         np.add.at(sum_r, (iy[ok], ix[ok]), R[ok])
         np.add.at(count, (iy[ok], ix[ok]), 1)
         mean = np.where(count[..., None] >= 3, sum_r / np.maximum(count, 1)[..., None], np.nan)
-        xs = -field.half_x + (np.arange(nx) + 0.5) * cell
-        ys = -field.half_y + (np.arange(ny) + 0.5) * cell
+        xs = -geometry.half_width + (np.arange(nx) + 0.5) * cell
+        ys = -geometry.half_length + (np.arange(ny) + 0.5) * cell
         X, Y = np.meshgrid(xs, ys)
         mag = np.hypot(mean[..., 0], mean[..., 1])
         im = ax.pcolormesh(np.append(xs - cell / 2, xs[-1] + cell / 2), np.append(ys - cell / 2, ys[-1] + cell / 2),
@@ -72,14 +81,12 @@ def residual_map(measured: Measured, field: Field, nominal_theta: np.ndarray, fo
         ax.quiver(X, Y, mean[..., 0], mean[..., 1], color="w", angles="xy")
         overall = np.nanmean(R, axis=0)
         ax.set_title(f"Residual acceleration vs nominal\nmean ({overall[0]:+.3f}, {overall[1]:+.3f}) m/s²", fontsize=10)
-    _field_outline(ax, field)
+    _field_outline(ax, geometry)
     for e in found:
         if e["name"] == "surface_dent":
             p = e["params"]
             ax.add_patch(plt.Circle((p["x"], p["y"]), p["radius"], fill=False, color="r", lw=2, ls="--"))
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def deceleration_vs_speed(measured: Measured, nominal_rolling: float, theta: np.ndarray, path: Path) -> None:
@@ -106,9 +113,7 @@ def deceleration_vs_speed(measured: Measured, nominal_rolling: float, theta: np.
     ax.set_ylabel("along-track deceleration (m/s²)")
     ax.set_title("Deceleration against speed: constant = rolling, linear = viscous, quadratic = drag", fontsize=9)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
 
 
 def bounce_speeds(measured: Measured) -> list[tuple[str, float, float]]:
@@ -141,14 +146,12 @@ def wall_bounces(measured: Measured, nominal: float, fitted: float | None, path:
     ax.set_ylabel("normal speed out, first 50 ms (m/s)")
     ax.set_title("Wall bounces (out speed just after contact,\nalready slowed by sliding)", fontsize=9)
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)
 
 
-def tracks_overlay(measured: Measured, field: Field, predictions, path: Path, count: int = 6) -> None:
+def tracks_overlay(measured: Measured, geometry: TableGeometry, predictions, path: Path, count: int = 6) -> None:
     fig, ax = plt.subplots(figsize=(5.2, 8))
-    _field_outline(ax, field)
+    _field_outline(ax, geometry)
     starts = predictions.starts
     if starts:
         pick = np.linspace(0, len(starts) - 1, min(count, len(starts))).astype(int)
@@ -164,6 +167,4 @@ def tracks_overlay(measured: Measured, field: Field, predictions, path: Path, co
             ax.plot(*xy[m][0], "ko", ms=3)
         ax.legend(fontsize=8, loc="upper right")
     ax.set_title("Measured tracks and 1 s predictions from held-out starts", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, path)

@@ -17,6 +17,8 @@ import numpy as np
 from scipy import sparse
 from scipy.optimize import least_squares
 
+from foos_core.table_geometry import TableGeometry
+
 from . import surrogate
 from .tracks import Segment
 
@@ -29,8 +31,14 @@ PARAM_STEP = np.array([1e-6, 1e-6, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-7])
 FIT_TOLERANCE = 1e-6
 SLIP_LIMIT = 4.0  # m/s, each slip component
 MAX_DENT_DEPTH = 0.006  # m: the deepest dent (or highest bump) a table can have; dents worth naming are 1-4 mm
-LOWER = np.array([-0.05, -0.05, 0.0, 0.0, 0.0, -0.34, -0.60, 0.03, -MAX_DENT_DEPTH])
-UPPER = np.array([0.05, 0.05, 2.0, 3.0, 2.0, 0.34, 0.60, 0.30, MAX_DENT_DEPTH])
+
+
+def parameter_bounds(geometry: TableGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds of the 9 parameters (surrogate.PARAM_NAMES); a dent's centre lies on the field."""
+    hx, hy = geometry.half_width, geometry.half_length
+    lower = np.array([-0.05, -0.05, 0.0, 0.0, 0.0, -hx, -hy, 0.03, -MAX_DENT_DEPTH])
+    upper = np.array([0.05, 0.05, 2.0, 3.0, 2.0, hx, hy, 0.30, MAX_DENT_DEPTH])
+    return lower, upper
 
 
 class SegmentBatch:
@@ -144,17 +152,22 @@ def jacobian(batch: SegmentBatch, states: np.ndarray, theta: np.ndarray, free: S
 
 
 def fit(batch: SegmentBatch, free: Sequence[int], theta0: np.ndarray, states0: np.ndarray | None = None,
-        max_nfev: int = 30) -> Fit:
-    """Least squares over the segments' states and the free parameters (the others held)."""
+        max_nfev: int = 30, geometry: TableGeometry | None = None) -> Fit:
+    """Least squares over the segments' states and the free parameters (the others held).
+
+    A dent's centre is kept on the field of `geometry` (the regulation table's by default).
+    """
     free = tuple(sorted(free))
+    lower, upper = parameter_bounds(geometry if geometry is not None else TableGeometry.nominal())
     n, ns = batch.n, batch.nstate
     states0 = batch.initial_states() if states0 is None else states0
     theta0 = theta0.copy()
     # Slides come from bounces under 1.5 m/s, so a slip over SLIP_LIMIT is a misfit being soaked up.
     state_limit = np.concatenate([np.full(4 * n, np.inf), np.full(ns - 4 * n, SLIP_LIMIT)])
-    lo = np.concatenate([-state_limit, LOWER[list(free)]])
-    hi = np.concatenate([state_limit, UPPER[list(free)]])
-    x0 = np.concatenate([np.clip(batch.pack(states0), -state_limit + 1e-6, state_limit - 1e-6), np.clip(theta0[list(free)], LOWER[list(free)] + 1e-6, UPPER[list(free)] - 1e-6)])
+    lo = np.concatenate([-state_limit, lower[list(free)]])
+    hi = np.concatenate([state_limit, upper[list(free)]])
+    x0 = np.concatenate([np.clip(batch.pack(states0), -state_limit + 1e-6, state_limit - 1e-6),
+                         np.clip(theta0[list(free)], lower[list(free)] + 1e-6, upper[list(free)] - 1e-6)])
 
     def unpack(x):
         theta = theta0.copy()
@@ -270,14 +283,16 @@ def _dent_gains(path, w, tau, h, residual, centres, radii):
     return best
 
 
-def dent_search(batch: SegmentBatch, base: Fit, half=(0.34, 0.60), around: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+def dent_search(batch: SegmentBatch, base: Fit, geometry: TableGeometry | None = None,
+                around: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """The dent (x, y, radius, depth) that best explains the residuals of `base`, by a matched filter.
 
     Linearised: a shallow dent adds to each segment the double integral of its pull along the
     fitted path, minus what the segment's own initial state can absorb (a line in time per axis).
     Each centre and radius on a grid gets its least-squares depth and the squared-residual drop it
-    buys (m^2); a coarse 4 cm grid is refined to 1 cm around the best. With `around` (x, y, radius)
-    only its neighbourhood is searched (within 4 cm and 3 cm of radius).
+    buys (m^2); a coarse 4 cm grid over the field of `geometry` (the regulation table's by default) is
+    refined to 1 cm around the best. With `around` (x, y, radius) only its neighbourhood is searched
+    (within 4 cm and 3 cm of radius).
     """
     n = batch.n
     grid = surrogate.integrate(base.states[:, :2], base.states[:, 2:4], np.tile(base.theta, (n, 1)), batch.nsteps, DT,
@@ -297,8 +312,10 @@ def dent_search(batch: SegmentBatch, base: Fit, half=(0.34, 0.60), around: np.nd
     if around is not None:
         radii = np.clip(around[2] + np.array([-0.03, -0.015, 0.0, 0.015, 0.03]), 0.04, 0.2)
         return _dent_gains(path, w, tau, h, residual, _centres_around(around, DENT_REACH), radii)
-    xs = np.arange(-half[0] + 0.04, half[0] - 0.04 + 1e-9, 0.04)
-    ys = np.arange(-half[1] + 0.04, half[1] - 0.04 + 1e-9, 0.04)
+    geometry = geometry if geometry is not None else TableGeometry.nominal()
+    hx, hy = geometry.half_width, geometry.half_length
+    xs = np.arange(-hx + 0.04, hx - 0.04 + 1e-9, 0.04)
+    ys = np.arange(-hy + 0.04, hy - 0.04 + 1e-9, 0.04)
     centres = np.stack([a.ravel() for a in np.meshgrid(xs, ys)], axis=1)
     coarse, _ = _dent_gains(path, w, tau, h, residual, centres, (0.05, 0.08, 0.12, 0.16))
     radii = np.clip(coarse[2] + np.array([-0.02, 0.0, 0.02]), 0.04, 0.2)

@@ -21,7 +21,10 @@ from typing import Sequence
 
 import mujoco
 import numpy as np
+from tqdm import tqdm
 
+from foos_bag import BagWriter, write_ball_detections
+from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 from foos_sim.effects import EFFECT_NAMES, ROLLING_MASS_FACTOR, Dent, EffectError
 from foos_sim.model_builder import ball_model_from_params
@@ -99,12 +102,12 @@ class HiddenTable:
         self.model = ball_model_from_params(self.params)
         self.data = mujoco.MjData(self.model)
         ball = self.params["ball"]
-        self.radius, self.mass = float(ball["radius"]), float(ball["mass"])
+        geometry = TableGeometry.from_params(self.params)
+        self.radius, self.mass = geometry.ball_radius, float(ball["mass"])
         self.g = float(self.params["gravity"])
         self.nominal_rolling = float(ball["rolling_deceleration"])
         self.nominal_restitution = float(self.params["walls"]["restitution"])
-        self.half = np.array([self.params["field"]["width"] / 2, self.params["field"]["length"] / 2])
-        self.goal_half_width = self.params["field"]["goal_width"] / 2
+        self.half = np.array([geometry.half_width, geometry.half_length])
         self.ball_body = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "ball")
         self.wall_geoms = {
             i for i in range(self.model.ngeom)
@@ -249,7 +252,6 @@ def generate(effects: Sequence[dict], duration: float = 60.0, seed: int = 0, fps
     clock = 0.0
     bar = None
     if progress:
-        from tqdm import tqdm
         bar = tqdm(total=round(duration), unit="s", desc="generating", file=sys.stderr)
     while clock < duration:
         position, velocity = random_launch(rng, table.half)
@@ -270,7 +272,7 @@ def generate(effects: Sequence[dict], duration: float = 60.0, seed: int = 0, fps
     truth_p = np.concatenate(p_all)
     frames = np.arange(0.0, duration, 1.0 / fps)
     keep, measured = [], []
-    for times, positions, start in zip(t_all, p_all, (l[0] for l in launches)):
+    for times, positions in zip(t_all, p_all):
         inside = frames[(frames >= times[0]) & (frames <= times[-1])]
         if inside.size == 0:
             continue
@@ -286,14 +288,16 @@ def generate(effects: Sequence[dict], duration: float = 60.0, seed: int = 0, fps
 
 
 def write_bag(recording: Recording, path: str | Path) -> None:
-    from foos_bag import BagWriter, write_ball_detections
-
     with BagWriter(path) as writer:
         write_ball_detections(writer, recording.t, recording.position)
 
 
-def random_effect(name: str, rng: np.random.Generator, nominal_rolling: float = 0.15) -> dict:
-    """One effect with a magnitude drawn from the acceptance ranges of the calibration issue."""
+def random_effect(name: str, rng: np.random.Generator, nominal_rolling: float = 0.15,
+                  geometry: TableGeometry | None = None) -> dict:
+    """One effect with a magnitude drawn from the acceptance ranges of the calibration issue.
+
+    A dent lies wholly on the field of `geometry` (the regulation table's by default).
+    """
     if name == "table_tilt":
         slope, angle = rng.uniform(0.002, 0.01), rng.uniform(0, 2 * np.pi)
         return {"name": name, "params": {"slope_x": slope * math.cos(angle), "slope_y": slope * math.sin(angle)}}
@@ -307,9 +311,11 @@ def random_effect(name: str, rng: np.random.Generator, nominal_rolling: float = 
     if name == "air_drag":
         return {"name": name, "params": {"coefficient": rng.uniform(0.02, 0.1)}}
     if name == "surface_dent":
+        geometry = geometry if geometry is not None else TableGeometry.nominal()
+        hx, hy = geometry.half_width, geometry.half_length
         radius = rng.uniform(0.05, 0.15)
-        x = rng.uniform(-0.34 + radius, 0.34 - radius) if radius < 0.3 else 0.0
-        y = rng.uniform(-0.60 + radius, 0.60 - radius)
+        x = rng.uniform(-hx + radius, hx - radius) if radius < hx else 0.0  # a dent wider than the field sits centred
+        y = rng.uniform(-hy + radius, hy - radius)
         return {"name": name, "params": {"x": x, "y": y, "radius": radius, "depth": rng.uniform(0.001, 0.004)}}
     if name == "wall_restitution":
         e = rng.uniform(0.4, 0.9)

@@ -12,8 +12,11 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
+from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 from foos_sim.model_builder import TableModelBuilder, ball_model_from_params
+
+from . import surrogate
 
 CHUNK = 2000  # physics steps per rollout call (keeps the state output small)
 THREADS = 2
@@ -41,8 +44,6 @@ def effects_list(names: Sequence[str], theta: np.ndarray, restitution: float | N
 
 def theta_of(params: dict) -> np.ndarray:
     """The surrogate's parameter vector of a table (its effects on top of its rolling resistance)."""
-    from . import surrogate
-
     theta = surrogate.nominal_theta(float(params["ball"]["rolling_deceleration"]))
     for effect in params.get("effects", []) or []:
         name, p = effect.get("name"), effect.get("params", {})
@@ -81,7 +82,7 @@ class BallRollouts:
 
     def __init__(self, params_trees: Sequence[dict]):
         self.models = [ball_model_from_params(p) for p in params_trees]
-        self.radius = float(params_trees[0]["ball"]["radius"])
+        self.radius = TableGeometry.from_params(params_trees[0]).ball_radius
         self.timestep = float(self.models[0].opt.timestep)
         self.datas = [mujoco.MjData(self.models[0]) for _ in range(THREADS)]
         self.spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -100,7 +101,8 @@ class BallRollouts:
             out.append(s)
         return np.array(out)
 
-    def positions(self, model_index: Sequence[int], states: np.ndarray, duration: float, sample_dt: float = 0.005) -> tuple[np.ndarray, np.ndarray]:
+    def positions(self, model_index: Sequence[int], states: np.ndarray, duration: float,
+                  sample_dt: float = 0.005) -> tuple[np.ndarray, np.ndarray]:
         """Ball (x, y) every sample_dt from each initial state: times (K,), positions (n, K, 2)."""
         model_index = list(model_index)
         models = [self.models[k] for k in model_index]

@@ -11,14 +11,15 @@ from typing import Callable
 import numpy as np
 import yaml
 
+from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
 from . import figures
 from .bounces import fit_restitution, fold_restitution
-from .evaluate import HORIZONS, choose_starts, predict, summary
+from .evaluate import HORIZONS, choose_starts, errors_of, estimate_states, predict, summary
 from .mjsim import base_effect_names, effects_list, params_with, restitution_of, theta_of
 from .select import select_effects
-from .tracks import DataError, Field, analyse, validate
+from .tracks import DataError, analyse, validate
 
 PARAMS_FILE_NAME = "calibrated_table.yaml"
 MIN_SEGMENTS = 6
@@ -71,14 +72,14 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
     nominal_rolling = float(theta_base[2])
     nominal_e = restitution_of(params)
     kept = base_effect_names(params)  # effects the base table already has
-    field = Field.from_params(params)
+    geometry = TableGeometry.from_params(params)
     t, xy = validate(t, position, frame_id)
     progress("finding tracks, wall contacts and rolling segments")
-    measured = analyse(t, xy, field)
+    measured = analyse(t, xy, geometry)
     if len(measured.segments) < MIN_SEGMENTS:
         raise DataError(f"too little rolling data: {len(measured.segments)} rolling segments of at least 0.25 s "
                         f"(need {MIN_SEGMENTS}); record more rolls")
-    selection = select_effects(measured.segments, measured.noise, theta_base, progress)
+    selection = select_effects(measured.segments, measured.noise, theta_base, geometry, progress)
     modelled = list(dict.fromkeys(kept + selection.effects))  # base effects, refitted or kept, and new ones
     rolling_effects = effects_list(modelled, selection.fit.theta)
     progress("fitting wall restitution on MuJoCo replays of the bounces")
@@ -115,8 +116,6 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
     baseline = summary(predictions.errors["nominal"], options.seed) if predictions else {"median_error_mm_1s": None}
     calibrated = summary(predictions.errors["calibrated"], options.seed) if predictions and effects else dict(baseline)
     if options.floor is not None and starts:
-        from .evaluate import errors_of, estimate_states
-
         floor_started, floor_cpu_started = time.monotonic(), time.process_time()
         floor_theta, predictor = options.floor
         states = estimate_states(starts, [floor_theta] * len(starts))
@@ -155,11 +154,11 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
     }
     if options.figures:
         progress("drawing figures")
-        figures.residual_map(measured, field, theta_nominal, effects, out_dir / "residual_map.png")
+        figures.residual_map(measured, geometry, theta_nominal, effects, out_dir / "residual_map.png")
         figures.deceleration_vs_speed(measured, nominal_rolling, selection.fit.theta, out_dir / "deceleration_vs_speed.png")
         figures.wall_bounces(measured, nominal_e, restitution.coefficient, out_dir / "wall_bounces.png")
         if predictions:
-            figures.tracks_overlay(measured, field, predictions, out_dir / "tracks.png")
+            figures.tracks_overlay(measured, geometry, predictions, out_dir / "tracks.png")
         report["figures"] = [p.name for p in sorted(out_dir.glob("*.png"))]
     if floor is not None:
         report["floor"] = floor

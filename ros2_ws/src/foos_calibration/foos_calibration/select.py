@@ -19,6 +19,8 @@ from typing import Callable
 
 import numpy as np
 
+from foos_core.table_geometry import TableGeometry
+
 from . import surrogate
 from .fitting import (
     DENT_REACH,
@@ -75,9 +77,10 @@ class Selection:
 
 
 class HeldOut:
-    """Two folds of segments (alternating); caches each model's cross-fitted held-out error."""
+    """Two folds of segments (alternating) of a table; caches each model's cross-fitted held-out error."""
 
-    def __init__(self, segments: list[Segment]):
+    def __init__(self, segments: list[Segment], geometry: TableGeometry):
+        self.geometry = geometry
         self.folds = [[s for s in segments if s.fold == k] for k in (0, 1)]
         self.batches = [SegmentBatch(f) if f else None for f in self.folds]
         self.cache: dict[tuple, tuple[list[float], list[np.ndarray]]] = {}
@@ -99,7 +102,7 @@ class HeldOut:
         free = free_indices([name for name in names if name != "surface_dent"])
         thetas, rss = [], [0.0, 0.0]
         for k in (0, 1):
-            thetas.append(fit(self.batches[k], free, theta_full).theta if free else theta_full.copy())
+            thetas.append(fit(self.batches[k], free, theta_full, geometry=self.geometry).theta if free else theta_full.copy())
         for k in (0, 1):
             test = self.batches[1 - k]
             rss[1 - k] = fit_states(test, thetas[k]).rss
@@ -145,7 +148,8 @@ def dent_held_out_drops(segments: list[Segment], without: np.ndarray, with_dent:
     return drops
 
 
-def dent_frame_split_drops(segments: list[Segment], without: np.ndarray, with_dent: np.ndarray, scale2: float) -> list[float]:
+def dent_frame_split_drops(segments: list[Segment], without: np.ndarray, with_dent: np.ndarray, scale2: float,
+                           geometry: TableGeometry | None = None) -> list[float]:
     """Held-out evidence for a dent from alternate frames of the rolls that cross it.
 
     For a dent that too few rolls crossed for `dent_held_out_drops` to check (often one slow roll
@@ -153,7 +157,8 @@ def dent_frame_split_drops(segments: list[Segment], without: np.ndarray, with_de
     fitted on the even frames, and judged on the odd ones (their states refitted with and without
     it), then the other way round. Noise does not repeat from one frame to the next, so a dent that only soaks it
     up earns nothing; an error that does repeat (a misfit of the model along one roll) could, which
-    is why this route needs FRAME_SPLIT_EVIDENCE rather than MIN_EVIDENCE. Returns the two drops.
+    is why this route needs FRAME_SPLIT_EVIDENCE rather than MIN_EVIDENCE. Returns the two drops. The
+    dent's centre stays on the field of `geometry` (the regulation table's by default).
     """
     crossing = _crossing(segments, with_dent)
     halves = [[replace(s, t=s.t[k::2], xy=s.xy[k::2]) for s in crossing] for k in (0, 1)]
@@ -169,14 +174,14 @@ def dent_frame_split_drops(segments: list[Segment], without: np.ndarray, with_de
         # sit at the depth limit: the other half's frames still judge how well it predicts them.
         theta = without.copy()
         theta[5:9] = dent
-        theta = fit(train, surrogate.EFFECT_PARAMS["surface_dent"], theta, train_fit.states).theta
+        theta = fit(train, surrogate.EFFECT_PARAMS["surface_dent"], theta, train_fit.states, geometry=geometry).theta
         drops.append((fit_states(test, without).rss - fit_states(test, theta).rss) / scale2)
     return drops
 
 
-def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
+def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray, geometry: TableGeometry,
                    progress: Callable[[str], None] = lambda message: None) -> Selection:
-    """Effects (changes to the base table theta0) the held-out evidence supports."""
+    """Effects (changes to the base table theta0, whose field `geometry` is) the held-out evidence supports."""
     batch = SegmentBatch(segments)
     sigma2 = noise**2
     progress("fitting the nominal model's segment states")
@@ -184,7 +189,7 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
     chosen: list[str] = []
     evidence: dict[str, dict] = {}
     rejected: dict[str, dict] = {}
-    held = HeldOut(segments)
+    held = HeldOut(segments, geometry)
     if not held.usable():
         return Selection([], current, {}, [theta0, theta0], {"*": {"reason": "too few rolls for held-out folds"}})
     base_rss, base_thetas = held.score((), theta0)
@@ -197,7 +202,7 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
         drops = predicted_drops(batch, current, smooth) if smooth else {}
         dent_start = None
         if "surface_dent" in remaining:
-            dent_start, drops["surface_dent"] = dent_search(batch, current)
+            dent_start, drops["surface_dent"] = dent_search(batch, current, geometry)
         order = sorted(remaining, key=lambda k: -drops[k])
         accepted = False
         for name in order:
@@ -210,7 +215,7 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
             if name in ("viscous_damping", "air_drag"):
                 j = surrogate.EFFECT_PARAMS[name][0]
                 start[j] = max(start[j], 1e-3)
-            candidate = fit(batch, free_indices(chosen + [name]), start, current.states)
+            candidate = fit(batch, free_indices(chosen + [name]), start, current.states, geometry=geometry)
             progress(f"held-out check of {name}")
             new_dent = name == "surface_dent" and not theta0[8]
             rss, thetas = held.score(tuple(chosen + [name]), candidate.theta)
@@ -229,7 +234,7 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray,
                              and sum(fold_drops) >= MIN_EVIDENCE)
                 if not supported:
                     # Too few rolls to check one against the others: alternate frames, at a higher bar.
-                    frame_drops = dent_frame_split_drops(segments, current.theta, candidate.theta, scale2)
+                    frame_drops = dent_frame_split_drops(segments, current.theta, candidate.theta, scale2, geometry)
                     info["per_frame_half"] = [round(float(d), 1) for d in frame_drops]
                     supported = sum(frame_drops) >= FRAME_SPLIT_EVIDENCE and min(frame_drops) > 0
                     if supported:
@@ -291,7 +296,7 @@ def _revise(batch, held, chosen, current, base_rss, base_thetas, theta0, sigma2,
             if name in ("viscous_damping", "air_drag") and name not in chosen:
                 j = surrogate.EFFECT_PARAMS[name][0]
                 start[j] = max(start[j], 1e-3)
-        full = fit(batch, free_indices(names), start, current.states)
+        full = fit(batch, free_indices(names), start, current.states, geometry=held.geometry)
         rss, thetas = held.score(tuple(names), full.theta)
         return full, rss, thetas
 

@@ -25,7 +25,7 @@ import numpy as np
 
 G = 9.81
 ROLL = 5.0 / 7.0
-SLIDING_FRICTION = 0.30  # the nominal ball-field Coulomb friction (foos_sim/params/regulation_table.yaml)
+SLIDING_FRICTION = 0.30  # the nominal ball-field Coulomb friction (foos_core/params/regulation_table.yaml)
 SLIP_DECAY = 3.5  # slip shrinks 7/2 times as fast as friction slows the centre
 
 # The full parameter vector; a candidate model frees some entries and holds the rest at nominal.

@@ -12,6 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view as windows
+
+from foos_core.table_geometry import TableGeometry
 
 MAX_GAP = 0.15  # s without a detection that ends a track
 MAX_SPEED = 8.0  # m/s; a faster apparent jump is a new launch or an outlier
@@ -29,30 +32,19 @@ class DataError(ValueError):
     """Measured data that cannot be calibrated on (one-line reason)."""
 
 
-@dataclass
-class Field:
-    half_x: float = 0.34
-    half_y: float = 0.60
-    goal_half_width: float = 0.10
-    ball_radius: float = 0.0175
+def wall_distance(geometry: TableGeometry, xy: np.ndarray) -> np.ndarray:
+    """Distance (n,) from the ball centre to the nearest wall it can touch, minus the radius."""
+    x, y = np.abs(xy[:, 0]), np.abs(xy[:, 1])
+    side = geometry.half_width - geometry.ball_radius - x
+    end = geometry.half_length - geometry.ball_radius - y
+    # In front of a goal mouth there is no end wall to bounce from.
+    end = np.where(x < geometry.goal_half_width - geometry.ball_radius, np.inf, end)
+    post = np.hypot(x - geometry.goal_half_width, y - geometry.half_length) - geometry.ball_radius  # goal post edges
+    return np.minimum(np.minimum(side, end), post)
 
-    @classmethod
-    def from_params(cls, params: dict) -> "Field":
-        f = params["field"]
-        return cls(f["width"] / 2, f["length"] / 2, f["goal_width"] / 2, float(params["ball"]["radius"]))
 
-    def wall_distance(self, xy: np.ndarray) -> np.ndarray:
-        """Distance (n,) from the ball centre to the nearest wall it can touch, minus the radius."""
-        x, y = np.abs(xy[:, 0]), np.abs(xy[:, 1])
-        side = self.half_x - self.ball_radius - x
-        end = self.half_y - self.ball_radius - y
-        # In front of a goal mouth there is no end wall to bounce from.
-        end = np.where(x < self.goal_half_width - self.ball_radius, np.inf, end)
-        post = np.hypot(x - self.goal_half_width, y - self.half_y) - self.ball_radius  # goal post edges
-        return np.minimum(np.minimum(side, end), post)
-
-    def inside(self, xy: np.ndarray) -> np.ndarray:
-        return (np.abs(xy[:, 0]) <= self.half_x) & (np.abs(xy[:, 1]) <= self.half_y)
+def on_field(geometry: TableGeometry, xy: np.ndarray) -> np.ndarray:
+    return (np.abs(xy[:, 0]) <= geometry.half_width) & (np.abs(xy[:, 1]) <= geometry.half_length)
 
 
 @dataclass
@@ -133,19 +125,17 @@ def _window_velocity(t: np.ndarray, xy: np.ndarray) -> np.ndarray:
     return np.einsum("nw,nwk->nk", tc, xc) / np.maximum(np.sum(tc**2, axis=1), 1e-12)[:, None]
 
 
-def contact_frames(field_: Field, t: np.ndarray, xy: np.ndarray, window: int = 6) -> np.ndarray:
+def contact_frames(geometry: TableGeometry, t: np.ndarray, xy: np.ndarray, window: int = 6) -> np.ndarray:
     """Frames at or around a wall contact.
 
     At 3 m/s the ball moves 25 mm between frames, so a bounce is often never seen within a few mm of
     the wall: a frame also counts when it is near a wall and the velocity after it differs from the
     velocity before it by more than the noise allows.
     """
-    distance = field_.wall_distance(xy)
+    distance = wall_distance(geometry, xy)
     near = distance < WALL_ZONE
     n = len(t)
     if n >= 2 * window:
-        from numpy.lib.stride_tricks import sliding_window_view as windows
-
         tw, pw = windows(t, window), windows(xy, window, axis=0).transpose(0, 2, 1)
         v = _window_velocity(tw, pw)  # velocity of frames i .. i+window-1
         change = np.zeros(n)
@@ -165,22 +155,23 @@ def contact_frames(field_: Field, t: np.ndarray, xy: np.ndarray, window: int = 6
     return near
 
 
-def _which_wall(field_: Field, xy: np.ndarray) -> str:
+def _which_wall(geometry: TableGeometry, xy: np.ndarray) -> str:
     x, y = xy
-    side = field_.half_x - abs(x)
-    end = field_.half_y - abs(y)
+    side = geometry.half_width - abs(x)
+    end = geometry.half_length - abs(y)
     if side < end:
         return "side_pos_x" if x > 0 else "side_neg_x"
     return "end_away" if y > 0 else "end_home"
 
 
-def flights_of_track(field_: Field, track: int, t: np.ndarray, xy: np.ndarray) -> tuple[list[Flight], list[tuple[int, int, float, str]]]:
+def flights_of_track(geometry: TableGeometry, track: int, t: np.ndarray,
+                     xy: np.ndarray) -> tuple[list[Flight], list[tuple[int, int, float, str]]]:
     """Flights, and contacts as (flight before, flight after, time, wall) within one track."""
-    inside = field_.inside(xy)
+    inside = on_field(geometry, xy)
     if not np.all(inside):  # the ball left the field (a goal): the track ends there
         stop = int(np.argmin(inside))
         t, xy = t[:stop], xy[:stop]
-    near = contact_frames(field_, t, xy)
+    near = contact_frames(geometry, t, xy)
     flights: list[Flight] = []
     contacts: list[tuple[int, int, float, str]] = []
     i, n = 0, len(t)
@@ -190,8 +181,8 @@ def flights_of_track(field_: Field, track: int, t: np.ndarray, xy: np.ndarray) -
             j = i
             while j < n and near[j]:
                 j += 1
-            k = int(i + np.argmin(field_.wall_distance(xy[i:j])))
-            wall = _which_wall(field_, xy[k])
+            k = int(i + np.argmin(wall_distance(geometry, xy[i:j])))
+            wall = _which_wall(geometry, xy[k])
             before = flights[-1] if flights else None
             v_in = _linear_velocity(before.t[-12:], before.xy[-12:]) if before is not None and len(before.t) >= 6 else None
             pending = (float(t[k]), wall, v_in, len(flights) - 1 if before is not None else None)
@@ -338,13 +329,13 @@ class Measured:
     noise: float  # m, detection noise estimated from second differences
 
 
-def analyse(t: np.ndarray, xy: np.ndarray, field_: Field) -> Measured:
+def analyse(t: np.ndarray, xy: np.ndarray, geometry: TableGeometry) -> Measured:
     tracks = split_tracks(t, xy)
     flights: list[Flight] = []
     segments: list[Segment] = []
     bounces: list[Bounce] = []
     for k, (tt, pp) in enumerate(tracks):
-        fl, contacts = flights_of_track(field_, k, tt, pp)
+        fl, contacts = flights_of_track(geometry, k, tt, pp)
         base = len(flights)
         flights += fl
         for f_index, flight in enumerate(fl):
