@@ -3,7 +3,15 @@ from __future__ import annotations
 
 import pytest
 
+from .drawn_table import write_layout
 from .helpers import render
+
+
+@pytest.fixture(scope="session")
+def layout(tmp_path_factory):
+    """The markers of the drawn table (drawn_table: real ArUco tags, straight down); a test module drawing its
+    table at another scale has its own."""
+    return write_layout(tmp_path_factory.mktemp("drawn") / "markers.yaml")
 
 
 @pytest.fixture(scope="session")

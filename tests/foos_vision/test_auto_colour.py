@@ -6,8 +6,9 @@ import cv2
 import numpy as np
 import pytest
 
+from foos_vision.ball_colour import ROD_LINE_MIN_DX, ROD_LINE_Y_TOL, MovingBallVotes
 from foos_vision.rod_lines import on_rod_line, rod_bands, rod_geometry
-from foos_vision.tracker import ROD_LINE_MIN_DX, ROD_LINE_Y_TOL, BallTracker, MovingBallVotes, TrackerConfig
+from foos_vision.tracker import BallTracker, TrackerConfig
 
 from .drawn_table import FPS, draw_ball, table_frame, write_layout
 
@@ -27,7 +28,7 @@ def test_a_figure_seen_now_and_then_does_not_settle_the_colour(tmp_path):
         if k >= 40:
             draw_ball(frame, 0.1, -0.3 + 0.5 * (k - 40) / FPS)  # the orange ball, in view from frame 40
         tracker.process(cv2.GaussianBlur(frame, (3, 3), 0.7), k / FPS)
-        if tracker._auto_done and settled_at is None:
+        if tracker.colour_settled and settled_at is None:
             settled_at = k
             assert tracker.colour.name == "orange", (k, tracker.colour.name)
     assert settled_at is not None and settled_at >= 40
@@ -40,7 +41,7 @@ def run_auto(layout, draw, frames: int = 60):
         frame = table_frame()
         draw(frame, k)
         tracker.process(cv2.GaussianBlur(frame, (3, 3), 0.7), k / FPS)
-        if tracker._auto_done:
+        if tracker.colour_settled:
             return tracker.colour.name, k
     return None, None
 

@@ -21,13 +21,8 @@ from .drawn_table import (
     draw_ball,
     table_frame,
     to_pixel,
-    write_layout,
 )
 
-
-@pytest.fixture(scope="module")
-def layout(tmp_path_factory):
-    return write_layout(tmp_path_factory.mktemp("backfill") / "markers.yaml")
 
 def track(frames: list[np.ndarray], layout, backward: bool) -> dict[int, tuple[float, float]]:
     tracker = BallTracker(layout, TrackerConfig(ball_color="orange"))

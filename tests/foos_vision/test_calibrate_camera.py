@@ -6,6 +6,10 @@ import numpy as np
 import pytest
 import yaml
 
+from foos_vision.boards import board_views
+from foos_vision.camera import CameraConfig, load_intrinsics
+from foos_vision.geometry import Lens
+
 from .helpers import ros2_run
 
 K = np.array([[520.0, 0, 319.5], [0, 520.0, 239.5], [0, 0, 1]])
@@ -57,8 +61,6 @@ def test_calibrate_camera_recovers_the_lens(tmp_path):
     assert abs(tree["dist_coeffs"][0] - DIST[0]) < 0.04
     assert tree["rms_reprojection_error_px"] < 0.5
     # The file is what track_video --intrinsics reads.
-    from foos_vision.camera import load_intrinsics
-
     assert load_intrinsics(out).width == 640
 
 
@@ -76,10 +78,6 @@ FISHEYE = dict(width=640, height=480, fovy=110.0, model="fisheye", distortion=(0
 
 @pytest.mark.timeout(120)
 def test_calibrate_camera_fisheye_recovers_the_lens(tmp_path):
-    from foos_vision.boards import board_views
-    from foos_vision.camera import CameraConfig, load_intrinsics
-    from foos_vision.geometry import Lens
-
     camera = CameraConfig(**FISHEYE)
     for i, image in enumerate(board_views(camera, 12, board=(9, 6), square=SQUARE_M, seed=2)):
         cv2.imwrite(str(tmp_path / f"view{i:02d}.png"), image)

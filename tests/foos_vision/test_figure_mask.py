@@ -14,6 +14,7 @@ from foos_vision.camera import load_camera
 from foos_vision.figure_mask import FigureGeometry, JointTrack, joint_track, projection_from_mapping
 from foos_vision.geometry import PlaneMapping
 from foos_vision.render import read_joints
+from foos_vision.tracker import BallTracker, TrackerConfig
 
 from . import drawn_table as dt
 from .helpers import ros2_run
@@ -84,8 +85,6 @@ def drawn_rod(frame: np.ndarray, slide: float) -> None:
 
 
 def track_drawn(layout, geometry, masked: bool, ball_path):
-    from foos_vision.tracker import BallTracker, TrackerConfig
-
     tracker = BallTracker(layout, TrackerConfig(ball_color="red"), geometry if masked else None)
     found = {}
     for k in range(len(ball_path)):

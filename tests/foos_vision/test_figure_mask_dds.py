@@ -9,12 +9,19 @@ import time
 
 import numpy as np
 import pytest
+import rclpy
+from geometry_msgs.msg import PointStamped
+from rclpy.executors import SingleThreadedExecutor
+from sensor_msgs.msg import Image, JointState
 
 from foos_core.names import JOINT_NAMES
+from foos_core.stamps import seconds_to_stamp
 
 from . import drawn_table as dt
 from .helpers import stop_node, workspace_env
 from .test_figure_mask import RED_BGR, drawn_rod, joints
+
+pytestmark = pytest.mark.dds
 
 DOMAIN = 43
 FIGURES_ONLY, WITH_BALL = 90, 60
@@ -28,13 +35,6 @@ def start_tracker(markers, log, *extra: str) -> subprocess.Popen:
 
 @pytest.mark.timeout(120)
 def test_tracker_node_masks_figures_from_joint_states(tmp_path):
-    import rclpy
-    from geometry_msgs.msg import PointStamped
-    from rclpy.executors import SingleThreadedExecutor
-    from sensor_msgs.msg import Image, JointState
-
-    from foos_vision.ros_common import seconds_to_stamp
-
     markers = tmp_path / "markers.yaml"
     dt.write_layout(markers)
     context = rclpy.Context()

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 
 from foos_vision.render import read_truth
 
@@ -22,8 +23,6 @@ def fisheye_video(tmp_path_factory):
 
 @pytest.mark.timeout(120)
 def test_fisheye_video_is_tracked_with_its_intrinsics(fisheye_video, tmp_path):
-    import yaml
-
     stem = fisheye_video.with_suffix("")
     camera = yaml.safe_load(open(f"{stem}.camera.yaml"))
     assert camera["model"] == "fisheye" and camera["intrinsics"]["model"] == "fisheye"

@@ -3,10 +3,11 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
-from foos_vision.camera import CameraConfig, load_camera
+from foos_vision.camera import FISHEYE_RENDER_SCALE, CameraConfig, Intrinsics, load_camera
 from foos_vision.errors import CameraConfigError, MarkersError
 from foos_vision.geometry import Lens, fit_mapping, tag_centre
 from foos_vision.markers import BALL_CENTRE_HEIGHT, MarkerLayout, load_markers
@@ -66,8 +67,6 @@ def test_tag_centre_is_the_projected_centre_not_the_corner_mean():
 
 
 def test_lens_undistort_inverts_distort():
-    from foos_vision.camera import Intrinsics
-
     camera = load_camera("overhead").with_(distortion=(-0.28, 0.09))
     lens = Lens(Intrinsics(camera.camera_matrix(), camera.dist_coeffs(), camera.width, camera.height))
     pixels = np.array([[10.0, 10.0], [320.0, 240.0], [600.0, 400.0]])
@@ -78,10 +77,6 @@ def test_lens_undistort_inverts_distort():
 def test_lens_distort_is_opencvs_model(coefficients):
     """Lens.distort computes OpenCV's (k1, k2, p1, p2, k3) model in numpy (placing the rods sends 100k points
     through it): the same pixels as cv2.projectPoints."""
-    import cv2
-
-    from foos_vision.camera import Intrinsics
-
     k = np.array([[579.4, 0.0, 319.5], [0.0, 571.2, 241.0], [0.0, 0.0, 1.0]])
     d = np.array(coefficients, float)
     pixels = np.random.default_rng(3).uniform((-50.0, -50.0), (690.0, 530.0), (2000, 2))
@@ -93,8 +88,6 @@ def test_lens_distort_is_opencvs_model(coefficients):
 def test_fisheye_lens_maps_to_the_pinhole_of_the_same_camera_matrix():
     """Lens(fisheye) takes the image of cv2.fisheye to the ideal pinhole with the same K and back; it agrees
     with the camera's own projection; a fisheye with k = 0 is still no pinhole."""
-    from foos_vision.camera import CameraConfig
-
     camera = CameraConfig(width=1920, height=1080, fovy=76.0, position=(0.0, 0.0, 1.0), model="fisheye",
                           distortion=(0.05, -0.02, 0.01, -0.005))
     lens = Lens(camera.intrinsics())
@@ -110,8 +103,6 @@ def test_fisheye_lens_maps_to_the_pinhole_of_the_same_camera_matrix():
 
 
 def test_fisheye_render_camera_covers_the_image_up_to_its_size_limit():
-    from foos_vision.camera import FISHEYE_RENDER_SCALE, load_camera
-
     camera = load_camera("fisheye")
     assert camera.fisheye and (camera.width, camera.height, camera.fps) == (1920, 1080, 25.0)
     ideal = camera.render_camera()

@@ -7,10 +7,16 @@ import time
 
 import numpy as np
 import pytest
+import rclpy
+from geometry_msgs.msg import PointStamped
+from nav_msgs.msg import Odometry
+from rclpy.executors import SingleThreadedExecutor
 
 from foos_vision.render import read_truth
 
 from .helpers import stop_node, workspace_env
+
+pytestmark = pytest.mark.dds
 
 
 def spawn(domain: int, executable: str, *params: str, log) -> subprocess.Popen:
@@ -22,11 +28,6 @@ def spawn(domain: int, executable: str, *params: str, log) -> subprocess.Popen:
 
 @pytest.mark.timeout(120)
 def test_video_source_to_tracker_node_stamps_are_capture_times(overhead_video, tmp_path):
-    import rclpy
-    from geometry_msgs.msg import PointStamped
-    from nav_msgs.msg import Odometry
-    from rclpy.executors import SingleThreadedExecutor
-
     domain = 41
     truth = read_truth(overhead_video.with_suffix("").as_posix() + ".truth.csv")
     markers = overhead_video.with_suffix("").as_posix() + ".markers.yaml"

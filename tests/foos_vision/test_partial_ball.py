@@ -12,22 +12,12 @@ import numpy as np
 import pytest
 
 from foos_core.names import JOINT_NAMES
+from foos_vision.ball_search import PARTIAL_RUN
+from foos_vision.candidate_rules import WEAK_TRACK_FRAMES, WEAK_TRACK_LIMIT, weak_too_long
 from foos_vision.figure_mask import FigureGeometry
-from foos_vision.tracker import (
-    PARTIAL_RUN,
-    WEAK_TRACK_FRAMES,
-    WEAK_TRACK_LIMIT,
-    BallTracker,
-    TrackerConfig,
-    weak_too_long,
-)
+from foos_vision.tracker import BallTracker, TrackerConfig
 
-from .drawn_table import SCALE, STEEL_BGR, draw_ball, table_frame, to_pixel, write_layout
-
-
-@pytest.fixture(scope="module")
-def layout(tmp_path_factory):
-    return write_layout(tmp_path_factory.mktemp("weak") / "markers.yaml")
+from .drawn_table import SCALE, STEEL_BGR, draw_ball, table_frame, to_pixel
 
 
 def test_the_limit_is_the_longer_of_seconds_and_frames():

@@ -19,15 +19,10 @@ from foos_vision.geometry import Lens
 from foos_vision.rod_lines import fit_rod_shifts, rod_geometry, rod_mask
 from foos_vision.tracker import BallTracker, TrackerConfig
 
-from .drawn_table import ORANGE_BGR, SCALE, draw_ball, table_frame, write_layout
+from .drawn_table import ORANGE_BGR, SCALE, draw_ball, table_frame
 
 WHITE_BGR = (235, 235, 235)
 SIZE = (640, 480)
-
-
-@pytest.fixture(scope="module")
-def layout(tmp_path_factory):
-    return write_layout(tmp_path_factory.mktemp("rods") / "markers.yaml")
 
 
 @pytest.fixture(scope="module")
@@ -64,11 +59,11 @@ def test_the_rods_are_placed_on_the_steel_seen(camera):
     for shift in (0.0, 0.003, -0.004):
         frame = table_frame()
         draw_rods(frame, projection, shift)
-        found = fit_rod_shifts(frame, tracker._region, geometry, projection, Lens(None).distort)
+        found = fit_rod_shifts(frame, tracker.view.region, geometry, projection, Lens(None).distort)
         # A pixel is 2.5 mm here: the drawn rod's edges are whole pixels.
         assert np.all(np.abs(found - shift) <= 0.001), (shift, found)
     # No steel in view: no rod is found.
-    assert np.all(np.isnan(fit_rod_shifts(table_frame(), tracker._region, geometry, projection, Lens(None).distort)))
+    assert np.all(np.isnan(fit_rod_shifts(table_frame(), tracker.view.region, geometry, projection, Lens(None).distort)))
 
 
 def rolling_under_a_rod(layout, projection, masked: bool) -> tuple[list, list]:

@@ -7,7 +7,7 @@ from collections import deque
 import cv2
 import numpy as np
 
-from .tracker import FIELD_HALF_X, FIELD_HALF_Y, BallTracker, Detection
+from .tracker import BallTracker, Detection
 
 
 class Annotator:
@@ -15,7 +15,7 @@ class Annotator:
         self.tracker = tracker
         self.trail: deque = deque(maxlen=trail)
 
-    def draw(self, frame: np.ndarray, detection: Detection | None, full_track: bool = False) -> np.ndarray:
+    def draw(self, frame: np.ndarray, detection: Detection | None) -> np.ndarray:
         out = frame.copy()
         tr = self.tracker
         for tag_id, quad in tr.last_tag_corners.items():
@@ -23,15 +23,16 @@ class Annotator:
             cv2.polylines(out, [np.round(quad).astype(np.int32)], True, colour, 1, cv2.LINE_AA)
             cv2.putText(out, str(tag_id), tuple(int(v) for v in quad[0]), cv2.FONT_HERSHEY_SIMPLEX, 0.45, colour, 1)
         if tr.mapping is not None:
-            for x in np.arange(-FIELD_HALF_X, FIELD_HALF_X + 1e-9, 0.1133333):
-                self._line(out, [(x, -FIELD_HALF_Y), (x, FIELD_HALF_Y)])
-            for y in np.arange(-FIELD_HALF_Y, FIELD_HALF_Y + 1e-9, 0.1):
-                self._line(out, [(-FIELD_HALF_X, y), (FIELD_HALF_X, y)])
+            half_x, half_y = tr.view.table.half_width, tr.view.table.half_length
+            for x in np.linspace(-half_x, half_x, 7):  # six columns across, 10 cm rows along
+                self._line(out, [(x, -half_y), (x, half_y)])
+            for y in np.arange(-half_y, half_y + 1e-9, 0.1):
+                self._line(out, [(-half_x, y), (half_x, y)])
         if tr.rod_axes is not None:
             out[tr.rod_axes > 0] = (255, 0, 255)
         if detection is not None:
             self.trail.append((detection.u, detection.v))
-            radius = max(3, int(round(tr._radius_at_pixel(detection.u, detection.v))))
+            radius = max(3, int(round(tr.view.radius_at_pixel(detection.u, detection.v))))
             cv2.circle(out, (int(round(detection.u)), int(round(detection.v))), radius + 2, (0, 0, 255), 1, cv2.LINE_AA)
             cv2.putText(out, f"({detection.x:+.3f}, {detection.y:+.3f}) m", (8, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5,
                         (255, 255, 255), 1, cv2.LINE_AA)

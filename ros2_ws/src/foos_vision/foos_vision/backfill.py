@@ -15,8 +15,9 @@ from typing import Optional
 
 import numpy as np
 
+from .candidate_rules import MAX_SPILL, MIN_PARTIAL_FILL, confident, solid, weak_too_long
 from .markers import BALL_CENTRE_HEIGHT
-from .tracker import MAX_SPILL, MIN_PARTIAL_FILL, BallTracker, Detection, weak_too_long
+from .tracker import BallTracker, Detection
 from .velocity import ConstantVelocityKalman
 
 SEED_DETECTIONS = 3  # detections of a new track that give the backward search its velocity
@@ -108,12 +109,12 @@ class OfflineTracker:
             # first frame without the ball. Before a gap the ball's path is unknown (the serve, a kick), and a
             # figure of its colour there would pass for a half-hidden ball.
             tr.set_figures(joints)
-            candidate, _, _ = tr._search_near(frame, state, 0.0, 0)
+            candidate, _, _ = tr.search.near(frame, state, 0.0, 0)
             # Hollow (a figure's outline) or merged with something of its colour (its centre pulled off): not
             # a ball to start a track's history with.
             if candidate is None or candidate.fill < MIN_PARTIAL_FILL or candidate.spill > MAX_SPILL:
                 break
-            if not (tr._solid(candidate) or tr._confident(candidate)):
+            if not (solid(candidate) or confident(candidate)):
                 # Parts of a ball alone, for no longer than the forward tracker allows them.
                 weak_since = (t, index) if weak_since is None else weak_since
                 if weak_too_long(weak_since[0] - t, weak_since[1] - index, tr.figures_guarded):

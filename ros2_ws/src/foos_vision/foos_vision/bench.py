@@ -34,7 +34,18 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
+
+from .backfill import OfflineTracker
+from .boards import board_views
+from .camera import load_camera, load_intrinsics
+from .figure_mask import FigureGeometry, joint_track
+from .markers import load_markers
+from .render import read_joints, read_truth
+from .tracker import BallTracker, TrackerConfig, choose_colour
+from .velocity import central_differences
+from .video_io import VideoReader
 
 AIRBORNE_Z = 0.0225  # m: ball centre more than 5 mm above its resting height
 TARGETS = {"median_mm": 2.0, "p95_mm": 5.0, "recall": 0.98, "false_per_1000": 1.0}
@@ -97,11 +108,6 @@ def render_case(case: Case, out: Path, duration: float, seed: int, reuse: bool =
 
 def calibrated_intrinsics(case: Case, workdir: Path, seed: int):
     """The intrinsics `calibrate_camera --fisheye` finds on checkerboard views drawn through the case's lens."""
-    import cv2
-
-    from .boards import board_views
-    from .camera import load_camera, load_intrinsics
-
     camera = load_camera(case.camera).with_(width=case.width, height=case.height)
     boards = workdir / f"{case.name}.boards"
     boards.mkdir(exist_ok=True)
@@ -114,27 +120,17 @@ def calibrated_intrinsics(case: Case, workdir: Path, seed: int):
 
 
 def evaluate(video: Path, case: Case, figure_mask: bool = False, intrinsics=None, label: str = "") -> dict:
-
-    from .backfill import OfflineTracker
-    from .markers import load_markers
-    from .render import read_truth
-    from .tracker import BallTracker, TrackerConfig, choose_colour
-    from .velocity import central_differences
-    from .video_io import VideoReader
-
     stem = video.with_suffix("")
     truth = read_truth(f"{stem}.truth.csv")
     if intrinsics is None and (case.distortion or case.fisheye):
-        intrinsics = load_intrinsics_from_camera(Path(f"{stem}.camera.yaml"))
+        # The camera file render_video wrote: its `intrinsics:` block is the lens the video was made with.
+        intrinsics = load_intrinsics(f"{stem}.camera.yaml")
     layout = load_markers(f"{stem}.markers.yaml")
     reader = VideoReader(str(video))
     frames = [frame for _, _, frame in reader.frames()]
     reader.close()
     figures, joints = None, None
     if figure_mask:
-        from .figure_mask import FigureGeometry, joint_track
-        from .render import read_joints
-
         joints_file = Path(f"{stem}.joints.csv")
         if not joints_file.exists():
             raise SystemExit(f"bench_vision: error: {joints_file} is missing (rendered before joints were written; "
@@ -149,7 +145,6 @@ def evaluate(video: Path, case: Case, figure_mask: bool = False, intrinsics=None
 
     colour = choose_colour(frames, layout, TrackerConfig(intrinsics=intrinsics), fps, figures, joints_at) or "auto"
     tracker = BallTracker(layout, TrackerConfig(ball_color=colour, intrinsics=intrinsics), figures)
-    start = time.perf_counter()
     decode_start = time.perf_counter()
     reader = VideoReader(str(video))
     for _ in reader.frames():
@@ -205,17 +200,6 @@ def evaluate(video: Path, case: Case, figure_mask: bool = False, intrinsics=None
     }
 
 
-def load_intrinsics_from_camera(path: Path):
-    import yaml
-
-    from .camera import Intrinsics
-
-    # The camera file render_video wrote: its `intrinsics:` block is the lens the video was made with.
-    tree = yaml.safe_load(path.read_text())["intrinsics"]
-    return Intrinsics(np.asarray(tree["camera_matrix"], float), np.asarray(tree["dist_coeffs"], float),
-                      int(tree["image_width"]), int(tree["image_height"]), tree.get("model", "pinhole"))
-
-
 def format_row(r: dict) -> str:
     return (f"{r['case']:<42} {r['frames']:>5} {r['half_visible_frames']:>5} {r['hidden_frames']:>5} "
             f"{r['median_mm']:>7.2f} {r['p95_mm']:>7.2f} {100 * r['recall']:>7.1f} {100 * r['online_recall']:>6.1f} "
@@ -229,8 +213,6 @@ HEADER = (f"{'case':<42} {'frames':>5} {'half':>5} {'hid':>5} {'med mm':>7} {'p9
 
 def run(duration: float, cases: list[Case], workdir: Path, seed: int = 1, echo=print, reuse: bool = False,
         figure_mask: str = "both") -> list[dict]:
-    import cv2
-
     cv2.setNumThreads(1)
     results = []
     echo(HEADER)

@@ -5,10 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import cv2
 import numpy as np
 
+from .camera import Intrinsics
 from .cli_util import run_cli
 from .errors import VisionError
+from .video_io import VideoReader
 
 DESCRIPTION = """\
 Compute the camera matrix and distortion coefficients from views of a printed checkerboard, as
@@ -41,10 +44,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _frames(inputs: list[str], step: int):
-    import cv2
-
-    from .video_io import VideoReader
-
     paths: list[Path] = []
     for item in inputs:
         path = Path(item)
@@ -67,10 +66,6 @@ def _frames(inputs: list[str], step: int):
 
 
 def calibrate(args: argparse.Namespace) -> int:
-    import cv2
-
-    from .camera import Intrinsics
-
     try:
         cols, rows = (int(v) for v in args.board.lower().split("x"))
     except ValueError:
@@ -112,15 +107,11 @@ def calibrate(args: argparse.Namespace) -> int:
 
 
 def _fisheye_flag(name: str) -> int:
-    import cv2
-
     # OpenCV 4 keeps the fisheye flags in cv2.fisheye; OpenCV 5 has one set of CALIB_ flags.
     return int(getattr(cv2.fisheye, name, None) or getattr(cv2, name))
 
 
 def _calibrate_fisheye(object_points, image_points, size):
-    import cv2
-
     flags = _fisheye_flag("CALIB_RECOMPUTE_EXTRINSIC") | _fisheye_flag("CALIB_FIX_SKEW")
     criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-9)
     objects = [p.reshape(1, -1, 3).astype(np.float64) for p in object_points]
@@ -135,8 +126,7 @@ def _calibrate_fisheye(object_points, image_points, size):
 
 
 def main(argv=None) -> None:
-    args = build_parser().parse_args(argv)
-    run_cli("calibrate_camera", lambda: calibrate(args))
+    run_cli(build_parser(), calibrate, argv)
 
 
 if __name__ == "__main__":

@@ -13,8 +13,11 @@ import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import cv2
 import numpy as np
 import yaml
+
+from foos_core.yaml_files import read_mapping
 
 from .errors import CameraConfigError
 
@@ -76,8 +79,6 @@ class CameraConfig:
         fisheye image up to max_scale times its size per axis."""
         if not self.fisheye:
             return self.with_(distortion=())
-        import cv2
-
         k = self.camera_matrix()
         w, h = self.width, self.height
         edge = np.linspace(0.0, 1.0, 64)
@@ -101,16 +102,12 @@ class CameraConfig:
         """OpenCV extrinsics (table -> camera with x right, y down, z forward)."""
         axes = self.axes()
         rotation = np.stack([axes[0], -axes[1], -axes[2]])
-        import cv2
-
         rvec, _ = cv2.Rodrigues(rotation)
         tvec = -rotation @ np.asarray(self.position, float)
         return rvec.ravel(), tvec
 
     def project(self, points: np.ndarray, distorted: bool = True) -> np.ndarray:
         """Pixels (N, 2) of table-frame points (N, 3), through the lens model when distorted."""
-        import cv2
-
         rvec, tvec = self.rvec_tvec()
         if distorted and self.fisheye:
             pixels, _ = cv2.fisheye.projectPoints(np.asarray(points, float).reshape(-1, 1, 3), rvec, tvec,
@@ -135,12 +132,7 @@ def load_camera(path: str | Path | None) -> CameraConfig:
         candidate = CONFIG_DIR / f"camera_{path}.yaml"
     if not candidate.is_file():
         raise CameraConfigError(f"camera config not found: {path} (give a YAML file or one of: overhead, oblique)")
-    try:
-        tree = yaml.safe_load(candidate.read_text()) or {}
-    except yaml.YAMLError as error:
-        raise CameraConfigError(f"{candidate}: not valid YAML ({error})".replace("\n", " ")) from None
-    if not isinstance(tree, dict):
-        raise CameraConfigError(f"{candidate}: a camera config is a YAML mapping")
+    tree = read_mapping(candidate, "camera config", CameraConfigError)
     known = set(CameraConfig.__dataclass_fields__)
     unknown = set(tree) - known
     if unknown:

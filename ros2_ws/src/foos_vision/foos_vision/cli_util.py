@@ -1,6 +1,7 @@
 """What every foos_vision command does alike: one-line errors, non-zero exits, single-threaded OpenCV."""
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 from typing import Callable
@@ -16,11 +17,14 @@ def quiet_threads() -> None:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 
-def run_cli(prog: str, body: Callable[[], int]) -> None:
-    """Run a command body; bad input ends in one line on stderr and exit status 2 (1 for failures)."""
+def run_cli(parser: argparse.ArgumentParser, body: Callable[[argparse.Namespace], int], argv=None) -> None:
+    """Run a command: its body on the arguments parsed; bad input ends in one line on stderr and exit status 2
+    (1 for failures), named by the parser's prog."""
+    args = parser.parse_args(argv)
+    prog = parser.prog
     quiet_threads()
     try:
-        code = body()
+        code = body(args)
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         code = 130

@@ -15,7 +15,12 @@ from dataclasses import dataclass
 from typing import Optional
 
 import cv2
+import mujoco
 import numpy as np
+
+from foos_core.joints import joint_order, take_joints
+from foos_core.names import JOINT_NAMES, is_figure_geom
+from foos_sim import load_model
 
 from .errors import VisionError
 from .geometry import Lens, PlaneMapping, camera_matrix_for
@@ -59,27 +64,15 @@ class JointStatesError(VisionError):
     """Joint states that cannot be used (missing joints, nothing finite)."""
 
 
-def figure_joint_names() -> tuple[str, ...]:
-    from foos_core.names import JOINT_NAMES
-
-    return JOINT_NAMES
-
-
 class FigureGeometry:
     """The figures' boxes in the table frame for given rod joint positions (foos_sim's model)."""
 
     def __init__(self, params_file: Optional[str] = None):
-        import mujoco
-
-        from foos_sim import load_model
-
-        self._mujoco = mujoco
         self.model = load_model(params_file)
         self.data = mujoco.MjData(self.model)
-        self.joint_names = figure_joint_names()
-        self._qpos = np.array([self.model.joint(n).qposadr[0] for n in self.joint_names])
+        self._qpos = np.array([self.model.joint(n).qposadr[0] for n in JOINT_NAMES])
         names = [self.model.geom(i).name for i in range(self.model.ngeom)]
-        self.geoms = np.array([i for i, n in enumerate(names) if "_figure" in n
+        self.geoms = np.array([i for i, n in enumerate(names) if is_figure_geom(n)
                                and self.model.geom_type[i] == mujoco.mjtGeom.mjGEOM_BOX])
         if len(self.geoms) == 0:
             raise VisionError("the foos_sim model has no figure boxes (geoms named *_figure*)")
@@ -88,7 +81,7 @@ class FigureGeometry:
     def corners(self, joints: np.ndarray) -> np.ndarray:
         """(G, 8, 3) corners of every figure box, table frame, for the 16 joints in JOINT_NAMES order."""
         self.data.qpos[self._qpos] = joints
-        self._mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_kinematics(self.model, self.data)
         centre = self.data.geom_xpos[self.geoms]  # (G, 3)
         rot = self.data.geom_xmat[self.geoms].reshape(-1, 3, 3)
         local = _CORNER_SIGNS[None, :, :] * self._half[:, None, :]  # (G, 8, 3)
@@ -210,34 +203,15 @@ class JointTrack:
 
 def joint_track(t: np.ndarray, names: list[str], position: np.ndarray, source: str) -> JointTrack:
     """Columns reordered to JOINT_NAMES; rows with a NaN dropped. JointStatesError when unusable."""
-    wanted = figure_joint_names()
-    index = {n: i for i, n in enumerate(names)}
-    missing = [n for n in wanted if n not in index]
+    order = joint_order(names, allow_missing=True)
+    missing = [JOINT_NAMES[i] for i in np.flatnonzero(order < 0)]
     if missing:
         raise JointStatesError(f"{source}: joint states lack {len(missing)} of the 16 rod joints "
                                f"(e.g. {missing[0]}); the figure mask needs all of them")
-    position = np.asarray(position, float)[:, [index[n] for n in wanted]]
+    position = take_joints(position, order)
     t = np.asarray(t, float)
     good = np.isfinite(t) & np.all(np.isfinite(position), axis=1)
     if not np.any(good):
         raise JointStatesError(f"{source}: no joint-state message has finite positions for all 16 rod joints")
     order = np.argsort(t[good], kind="stable")
     return JointTrack(t[good][order], position[good][order])
-
-
-def read_joint_track(bag: str) -> JointTrack:
-    """The /joint_states of a bag as a JointTrack; VisionError with one line when the bag cannot give it."""
-    from foos_bag import BagError, read_joint_states, topics
-
-    try:
-        available = topics(bag)
-    except (BagError, OSError, ValueError) as error:
-        raise JointStatesError(f"--joint-states {bag}: {error}") from None
-    if "/joint_states" not in available:
-        raise JointStatesError(f"--joint-states {bag}: the bag has no /joint_states topic "
-                               f"(topics: {', '.join(sorted(available)) or 'none'})")
-    try:
-        states = read_joint_states(bag)
-    except (BagError, OSError, ValueError) as error:
-        raise JointStatesError(f"--joint-states {bag}: {error}") from None
-    return joint_track(states.t, list(states.names), states.position, f"--joint-states {bag}")

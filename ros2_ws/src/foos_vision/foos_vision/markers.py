@@ -4,13 +4,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
-import yaml
+
+from foos_core.table_geometry import TableGeometry
+from foos_core.yaml_files import read_mapping
 
 from .errors import MarkersError
 
 DEFAULT_MARKERS_FILE = Path(__file__).resolve().parent / "config" / "markers.yaml"
-BALL_CENTRE_HEIGHT = 0.0175  # m, the plane the tracker reports the ball in
+# m, the plane the tracker reports the ball in: the regulation ball's centre (CONTRACT.md, "Markers and video time")
+BALL_CENTRE_HEIGHT = TableGeometry.nominal().ball_centre_height
 
 
 @dataclass(frozen=True)
@@ -20,8 +24,6 @@ class MarkerLayout:
     positions: dict[int, np.ndarray]  # id -> (x, y, z) of the tag centre
 
     def aruco_dictionary(self):
-        import cv2
-
         return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.dictionary))
 
     @property
@@ -38,15 +40,10 @@ def load_markers(path: str | Path | None = None) -> MarkerLayout:
     path = Path(path) if path is not None else DEFAULT_MARKERS_FILE
     if not path.is_file():
         raise MarkersError(f"markers file not found: {path}")
-    try:
-        tree = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as error:
-        raise MarkersError(f"{path}: not valid YAML ({error})".replace("\n", " ")) from None
-    if not isinstance(tree, dict) or "markers" not in tree:
+    tree = read_mapping(path, "markers file", MarkersError)
+    if "markers" not in tree:
         raise MarkersError(f"{path}: a markers file is a mapping with `markers: {{id: [x, y, z]}}`")
     dictionary = str(tree.get("dictionary", "DICT_4X4_50"))
-    import cv2
-
     if not dictionary.startswith("DICT_") or not hasattr(cv2.aruco, dictionary):
         raise MarkersError(f"{path}: unknown ArUco dictionary `{dictionary}` (e.g. DICT_4X4_50)")
     try:

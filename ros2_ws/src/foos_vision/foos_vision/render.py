@@ -15,6 +15,8 @@ import cv2
 import mujoco
 import numpy as np
 
+from foos_core.names import BALL_JOINT, JOINT_NAMES
+
 from .camera import CameraConfig
 from .hands import AWAY_Z, HAND_BODY, HandPose
 from .markers import MarkerLayout
@@ -109,12 +111,10 @@ class SceneRenderer:
             self.segmenter.enable_segmentation_rendering()
         lens = options.camera.fisheye or any(options.camera.distortion)
         self.distortion = DistortionMap(options.camera) if lens else None
-        ball = self.model.joint("ball")
+        ball = self.model.joint(BALL_JOINT)
         self.ball_qpos = slice(ball.qposadr[0], ball.qposadr[0] + 3)
         self.ball_geom = self.model.geom("ball").id
         self.ball_radius = float(self.model.geom_size[self.ball_geom][0])
-        from foos_core.names import JOINT_NAMES
-
         self.rod_qpos = np.array([self.model.joint(n).qposadr[0] for n in JOINT_NAMES])
         self.rng = np.random.default_rng(options.seed)
         self.hand_mocap = int(self.model.body(HAND_BODY).mocapid[0]) if options.hands else None
@@ -223,8 +223,6 @@ def write_truth(path: Path, truths: list[FrameTruth]) -> None:
 
 def write_joints(path: Path, truths: list[FrameTruth]) -> None:
     """frame,t and the 16 rod joints at each frame time: what /joint_states says on an instrumented table."""
-    from foos_core.names import JOINT_NAMES
-
     rows = np.array([[i, f.t, *f.joints] for i, f in enumerate(truths)], float)
     fmt = ["%d", "%.9f"] + ["%.7f"] * len(JOINT_NAMES)
     np.savetxt(path, rows, delimiter=",", header="frame,t," + ",".join(JOINT_NAMES), comments="", fmt=fmt)

@@ -7,12 +7,22 @@ import sys
 from pathlib import Path
 
 import cv2
+import numpy as np
 import yaml
+from tqdm import tqdm
 
+from foos_core.table_params import load_params
+from foos_sim.model_builder import build_mjcf
+from foos_sim.simulation import TableSimulation
+
+from .bag_inputs import read_recorded_states
 from .camera import load_camera
 from .cli_util import run_cli
 from .errors import VisionError
+from .hands import HandScript
 from .markers import DEFAULT_MARKERS_FILE, load_markers
+from .render import RenderOptions, SceneRenderer, render_frames, write_joints, write_truth
+from .scenarios import SimRollout, StateReplay
 from .scene import BALL_COLOURS, FIGURE_COLOURS
 
 DESCRIPTION = """\
@@ -116,17 +126,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def render_video(args: argparse.Namespace) -> int:
-    import numpy as np
-    from tqdm import tqdm
-
-    from foos_core.table_params import load_params
-    from foos_sim.model_builder import build_mjcf
-    from foos_sim.simulation import TableSimulation
-
-    from .hands import HandScript
-    from .render import RenderOptions, SceneRenderer, render_frames, write_joints, write_truth
-    from .scenarios import BagRollout, SimRollout
-
     out = Path(args.out)
     if out.suffix.lower() != ".mp4":
         raise VisionError(f"{out}: the output must be an .mp4 file")
@@ -158,7 +157,7 @@ def render_video(args: argparse.Namespace) -> int:
     params = load_params(args.params_file)
     sim = TableSimulation(params=params)
     if args.bag:
-        rollout = BagRollout(sim, args.bag)
+        rollout = StateReplay(sim, *read_recorded_states(args.bag))
         duration = min(args.duration, rollout.duration) if "--duration" in sys.argv else rollout.duration
     else:
         rollout = SimRollout(sim, args.scenario, seed=args.seed, hide_every=args.hide_every, hide_for=args.hide_for,
@@ -204,8 +203,7 @@ def render_video(args: argparse.Namespace) -> int:
 
 
 def main(argv=None) -> None:
-    args = build_parser().parse_args(argv)
-    run_cli("render_video", lambda: render_video(args))
+    run_cli(build_parser(), render_video, argv)
 
 
 if __name__ == "__main__":

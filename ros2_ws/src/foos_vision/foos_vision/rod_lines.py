@@ -24,6 +24,8 @@ from typing import Optional
 import cv2
 import numpy as np
 
+from foos_core.table_params import load_params
+
 from .figure_mask import draw_polyline, fill_convex, project_points
 from .markers import BALL_CENTRE_HEIGHT
 
@@ -42,8 +44,6 @@ class RodGeometry:
 
 def rod_geometry(params_file: Optional[str] = None) -> RodGeometry:
     """The rods and figures of foos_sim's table (the nominal one when params_file is None)."""
-    from foos_core.table_params import load_params
-
     tree = load_params(params_file)
     rods, figure = tree["rods"], tree["figure"]
     return RodGeometry(rod_y=tuple(sorted(float(r["y"]) for r in rods["layout"].values())),

@@ -4,17 +4,17 @@
   occlude the ball and hit it; now and then the ball is taken out of sight (picked up by a hand).
 - `rolls`: rods turned horizontal and held there, random rolls only: clean rolling data for
   calibrating rolling resistance and table tilt.
-- a bag: ball and rod states recorded by sim_node or a tracker, replayed and interpolated.
+- `StateReplay`: ball and rod states recorded by sim_node or a tracker (bag_inputs reads them from a bag),
+  replayed and interpolated.
 """
 from __future__ import annotations
 
 import math
 from typing import Optional
 
-import mujoco
 import numpy as np
 
-from foos_core.names import JOINT_NAMES
+from foos_core.names import BALL_JOINT, COMMAND_SIZE, JOINT_NAMES, RODS, TEAMS
 from foos_sim.simulation import TableSimulation
 
 SCENARIOS = ("play", "rolls")
@@ -66,10 +66,10 @@ class SimRollout:
 
     def _drive_rods(self, t: float) -> None:
         q = self.sim.joint_positions()
-        for team_index, team in enumerate(("home", "away")):
-            command = np.zeros(8)
-            for rod in range(4):
-                i = team_index * 4 + rod
+        for team_index, team in enumerate(TEAMS):
+            command = np.zeros(COMMAND_SIZE)
+            for rod in range(len(RODS)):
+                i = team_index * len(RODS) + rod
                 angle = q[2 * i + 1]
                 if self.scenario == "rolls":
                     command[2 * rod + 1] = -20.0 * (angle - math.pi / 2)
@@ -106,33 +106,20 @@ class SimRollout:
         return sim.data.qpos.copy(), sim.ball_velocity(), hidden
 
 
-class BagRollout:
-    """Ball and rod states from a bag, interpolated to the requested times (time 0 = the bag's first state)."""
+class StateReplay:
+    """Recorded ball and rod states, interpolated to the requested times (time 0 = the first ball state)."""
 
-    def __init__(self, sim: TableSimulation, bag_path: str):
-        from foos_bag import BagError, read_ball_states, read_joint_states  # noqa: F401
-
+    def __init__(self, sim: TableSimulation, t: np.ndarray, ball_position: np.ndarray, ball_velocity: np.ndarray,
+                 joint_t: Optional[np.ndarray] = None, joint_position: Optional[np.ndarray] = None):
+        """t: (N,) s of the ball states, sorted; joint_position: (M, 16) in JOINT_NAMES order at joint_t (M,) s, or
+        None: the rods stay as the model has them."""
         self.sim = sim
-        balls = read_ball_states(bag_path)
-        if len(balls.t) < 2:
-            raise ValueError(f"{bag_path}: fewer than 2 /ball/state messages, nothing to render")
-        if np.any(np.diff(balls.t) < 0):
-            raise ValueError(f"{bag_path}: /ball/state timestamps go backwards")
-        self.t0 = float(balls.t[0])
-        self.ball_t, self.ball_p, self.ball_v = balls.t - self.t0, np.asarray(balls.position), np.asarray(balls.velocity)
-        self.joint_t = None
-        try:
-            joints = read_joint_states(bag_path)
-        except Exception:
-            joints = None
-        if joints is not None and len(joints.t) >= 1:
-            index = {name: i for i, name in enumerate(joints.names)}
-            cols = [index.get(name) for name in JOINT_NAMES]
-            pos = np.asarray(joints.position)
-            self.joint_t = np.asarray(joints.t) - self.t0
-            self.joint_p = np.stack([pos[:, c] if c is not None else np.zeros(len(pos)) for c in cols], axis=1)
+        self.t0 = float(t[0])
+        self.ball_t, self.ball_p, self.ball_v = t - self.t0, ball_position, ball_velocity
+        self.joint_t = None if joint_t is None else joint_t - self.t0
+        self.joint_p = joint_position
         self.duration = float(self.ball_t[-1])
-        ball = sim.model.joint("ball")
+        ball = sim.model.joint(BALL_JOINT)
         self.qpos_ball = ball.qposadr[0]
         self.qpos_joints = np.array([sim.model.joint(n).qposadr[0] for n in JOINT_NAMES])
 
@@ -145,7 +132,3 @@ class BagRollout:
         if self.joint_t is not None:
             qpos[self.qpos_joints] = [np.interp(t, self.joint_t, self.joint_p[:, i]) for i in range(len(JOINT_NAMES))]
         return qpos, v, False
-
-
-def first_render_check(sim: TableSimulation) -> None:
-    mujoco.mj_forward(sim.model, sim.data)

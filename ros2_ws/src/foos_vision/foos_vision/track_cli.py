@@ -7,10 +7,24 @@ import sys
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
+from tqdm import tqdm
 
+from foos_bag import BagWriter, write_ball_detections, write_ball_states
+
+from .annotate import Annotator
+from .backfill import OfflineTracker
+from .bag_inputs import read_joint_track
+from .camera import load_intrinsics
 from .cli_util import run_cli
+from .detector import BALL_COLOR_NAMES
 from .errors import MarkersError, VisionError
+from .figure_mask import FigureGeometry
+from .markers import load_markers
+from .tracker import BallTracker, TrackerConfig, choose_colour
+from .velocity import central_differences
+from .video_io import VideoReader
 
 DESCRIPTION = """\
 Track the ball in a video of the table and write a rosbag2 bag (MCAP) with
@@ -40,8 +54,6 @@ Exit status: 0 done, 1 ran but the result is incomplete (video cut short), 2 bad
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .detector import BALL_COLOR_NAMES
-
     p = argparse.ArgumentParser(prog="track_video", description=DESCRIPTION,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("video", help="video file (anything OpenCV/FFmpeg decodes: mp4, avi, mkv, ...)")
@@ -68,19 +80,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def track_video(args: argparse.Namespace) -> int:
-    import cv2
-    from tqdm import tqdm
-
-    from foos_bag import BagWriter, write_ball_detections, write_ball_states
-
-    from .annotate import Annotator
-    from .backfill import OfflineTracker
-    from .camera import load_intrinsics
-    from .markers import load_markers
-    from .tracker import BallTracker, TrackerConfig, choose_colour
-    from .velocity import central_differences
-    from .video_io import VideoReader
-
     if not math.isfinite(args.start_time):
         raise VisionError("--start-time must be a finite number of seconds")
     if args.tag_interval < 1:
@@ -97,8 +96,6 @@ def track_video(args: argparse.Namespace) -> int:
                            params_file=args.params_file)
     figures, joints = None, None
     if args.joint_states:
-        from .figure_mask import FigureGeometry, read_joint_track
-
         joints = read_joint_track(args.joint_states)
         figures = FigureGeometry(args.params_file)
 
@@ -193,8 +190,7 @@ def track_video(args: argparse.Namespace) -> int:
 
 
 def main(argv=None) -> None:
-    args = build_parser().parse_args(argv)
-    run_cli("track_video", lambda: track_video(args))
+    run_cli(build_parser(), track_video, argv)
 
 
 if __name__ == "__main__":

@@ -17,23 +17,31 @@ import sys
 import time
 
 import numpy as np
-import rclpy
 from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, JointState
 
-from foos_core import node_signals
+from foos_core.joints import joint_order, take_joints
+from foos_core.names import (
+    BALL_DETECTION_TOPIC,
+    BALL_FRAME,
+    BALL_STATE_TOPIC,
+    CAMERA_IMAGE_TOPIC,
+    JOINT_STATES_TOPIC,
+    TABLE_FRAME,
+)
+from foos_core.nodes import run_node
+from foos_core.stamps import stamp_to_seconds
 
 from .camera import load_intrinsics
 from .cli_util import quiet_threads
 from .errors import VisionError
-from .figure_mask import FigureGeometry, figure_joint_names
+from .figure_mask import FigureGeometry
+from .image_msg import image_to_bgr
 from .joint_sync import JointSync, ReadyFrame
 from .markers import DEFAULT_MARKERS_FILE, load_markers
-from .ros_common import image_to_bgr, stamp_to_seconds
 from .tracker import BallTracker, TrackerConfig
 
 # Best effort, deep enough for 0.25 s of 400 Hz encoders while a frame is being tracked.
@@ -58,27 +66,26 @@ class TrackerNode(Node):
             params_file=self.get_parameter("params_file").value or None,
         )
         figures = None
-        self.joint_names = figure_joint_names()
         self.sync = JointSync()
         if self.get_parameter("figure_mask").value:
             figures = FigureGeometry(self.get_parameter("params_file").value or None)
-            self.create_subscription(JointState, "/joint_states", self.on_joint_states, JOINT_QOS)
+            self.create_subscription(JointState, JOINT_STATES_TOPIC, self.on_joint_states, JOINT_QOS)
             self.create_timer(0.05, self.on_timer)
         self.tracker = BallTracker(markers, config, figures)
         self.warned_joints = False
-        self.detection_pub = self.create_publisher(PointStamped, "/ball/detection", 50)
-        self.state_pub = self.create_publisher(Odometry, "/ball/state", 50)
-        self.create_subscription(Image, "/camera/image_raw", self.on_image, 10)
+        self.detection_pub = self.create_publisher(PointStamped, BALL_DETECTION_TOPIC, 50)
+        self.state_pub = self.create_publisher(Odometry, BALL_STATE_TOPIC, 50)
+        self.create_subscription(Image, CAMERA_IMAGE_TOPIC, self.on_image, 10)
         self.warned_tags = False
 
     def on_joint_states(self, msg: JointState) -> None:
-        index = {name: i for i, name in enumerate(msg.name)}
-        if any(n not in index for n in self.joint_names) or len(msg.position) < len(msg.name):
+        order = joint_order(msg.name, allow_missing=True)
+        if np.any(order < 0) or len(msg.position) < len(msg.name):
             if not self.warned_joints:
-                self.get_logger().warning("/joint_states without all 16 rod joint positions: no figure mask")
+                self.get_logger().warning(f"{JOINT_STATES_TOPIC} without all 16 rod joint positions: no figure mask")
                 self.warned_joints = True
             return
-        position = np.array([msg.position[index[n]] for n in self.joint_names], float)
+        position = take_joints(msg.position, order)
         if not np.all(np.isfinite(position)):
             return
         self.track(self.sync.add_joints(stamp_to_seconds(msg.header.stamp), position))
@@ -107,13 +114,13 @@ class TrackerNode(Node):
             return
         point = PointStamped()
         point.header.stamp = msg.header.stamp
-        point.header.frame_id = "table"
+        point.header.frame_id = TABLE_FRAME
         point.point.x, point.point.y, point.point.z = detection.x, detection.y, detection.z
         self.detection_pub.publish(point)
         state = self.tracker.kalman.state
         odom = Odometry()
         odom.header = point.header
-        odom.child_frame_id = "ball"
+        odom.child_frame_id = BALL_FRAME
         odom.pose.pose.position.x, odom.pose.pose.position.y = float(state.x[0]), float(state.x[1])
         odom.pose.pose.position.z = detection.z
         odom.pose.pose.orientation.w = 1.0
@@ -127,27 +134,10 @@ class TrackerNode(Node):
         self.state_pub.publish(odom)
 
 
-def main(args=None) -> None:
+def main(args=None) -> int:
     quiet_threads()
-    stop = node_signals.init(args)
-    node = None
-    code = 0
-    try:
-        node = TrackerNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        node_signals.spin_until_stopped(executor, stop)
-    except KeyboardInterrupt:  # a second Ctrl-C
-        pass
-    except (VisionError, ValueError, OSError) as error:
-        print(f"tracker_node: error: {error}", file=sys.stderr)
-        code = 2
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    sys.exit(code)
+    return run_node("tracker_node", TrackerNode, args=args, errors=(VisionError, ValueError, OSError))
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -12,20 +12,24 @@ import sys
 import time
 
 import rclpy
+from rclpy.executors import Executor
 from rclpy.node import Node
 from sensor_msgs.msg import Image
 
-from foos_core import node_signals
+from foos_core.names import CAMERA_IMAGE_TOPIC
+from foos_core.node_signals import StopSignal
+from foos_core.nodes import run_node
+from foos_core.stamps import seconds_to_stamp
 
 from .errors import VisionError
-from .ros_common import seconds_to_stamp
 from .video_io import VideoReader
+
+DRAIN_S = 0.5  # after the last frame, late subscribers' reliable queues drain this long before the publisher goes
 
 
 class VideoSource(Node):
-    def __init__(self, stop: node_signals.StopSignal):
+    def __init__(self):
         super().__init__("video_source")
-        self.stop = stop
         self.declare_parameter("source", "")  # a video file, or a device index such as "0"
         self.declare_parameter("fps", 0.0)  # 0 = the container's frame rate
         self.declare_parameter("start_time", 0.0)  # s added to file frame times
@@ -49,30 +53,39 @@ class VideoSource(Node):
         self.wait_for_subscribers = int(self.get_parameter("wait_for_subscribers").value)
         self.wait_timeout = float(self.get_parameter("wait_timeout").value)
         self.reader = VideoReader(self.source, self.fps)
-        self.publisher = self.create_publisher(Image, "/camera/image_raw", 10)
+        self.publisher = self.create_publisher(Image, CAMERA_IMAGE_TOPIC, 10)
         self.published = 0
         self.get_logger().info(f"publishing {source} ({self.reader.width}x{self.reader.height} @ {self.reader.fps:g} fps)")
 
-    def wait_for_consumers(self) -> None:
+    def run(self, executor: Executor, stop: StopSignal) -> None:
+        """run_node's run: publish the source, let late subscribers' reliable queues drain, say how it ended."""
+        self._publish_all(executor, stop)
+        end = time.monotonic() + DRAIN_S
+        while self._running(stop) and time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.05)
+        self.get_logger().info(f"{'stopped' if stop.requested else 'done'}: {self.published} frames published")
+
+    def _wait_for_consumers(self, executor: Executor, stop: StopSignal) -> None:
         deadline = time.monotonic() + self.wait_timeout
-        while self.running() and self.publisher.get_subscription_count() < self.wait_for_subscribers:
+        while self._running(stop) and self.publisher.get_subscription_count() < self.wait_for_subscribers:
             if time.monotonic() > deadline:
-                raise VisionError(f"no {self.wait_for_subscribers} subscriber(s) on /camera/image_raw within "
+                raise VisionError(f"no {self.wait_for_subscribers} subscriber(s) on {CAMERA_IMAGE_TOPIC} within "
                                   f"{self.wait_timeout:g} s (wait_for_subscribers)")
-            rclpy.spin_once(self, timeout_sec=0.05)
+            executor.spin_once(timeout_sec=0.05)
 
-    def running(self) -> bool:
-        return rclpy.ok() and not self.stop.requested
+    @staticmethod
+    def _running(stop: StopSignal) -> bool:
+        return rclpy.ok() and not stop.requested
 
-    def run(self) -> None:
+    def _publish_all(self, executor: Executor, stop: StopSignal) -> None:
         """Publish every frame at its time; returns at the end of the file (unless looping)."""
-        self.wait_for_consumers()
+        self._wait_for_consumers(executor, stop)
         offset = 0.0
-        while self.running():
+        while self._running(stop):
             wall_start = time.monotonic()
             last_t = 0.0
-            for index, t, frame in self.reader.frames():
-                if not self.running():
+            for _, t, frame in self.reader.frames():
+                if not self._running(stop):
                     return
                 if self.is_device:
                     stamp = self.get_clock().now().nanoseconds * 1e-9
@@ -102,29 +115,10 @@ class VideoSource(Node):
         return msg
 
 
-def main(args=None) -> None:
-    stop = node_signals.init(args)
-    node = None
-    code = 0
-    try:
-        node = VideoSource(stop)
-        node.run()
-        # Let late subscribers' reliable queues drain before the publisher goes away.
-        end = time.monotonic() + 0.5
-        while node.running() and time.monotonic() < end:
-            rclpy.spin_once(node, timeout_sec=0.05)
-        node.get_logger().info(f"{'stopped' if stop.requested else 'done'}: {node.published} frames published")
-    except KeyboardInterrupt:  # a second Ctrl-C
-        pass
-    except (VisionError, ValueError, OSError) as error:
-        print(f"video_source: error: {error}", file=sys.stderr)
-        code = 2
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    sys.exit(code)
+def main(args=None) -> int:
+    return run_node("video_source", VideoSource, run=VideoSource.run, args=args,
+                    errors=(VisionError, ValueError, OSError))
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

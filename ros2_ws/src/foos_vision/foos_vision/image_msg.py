@@ -1,22 +1,12 @@
-"""Small conversions between ROS messages and numpy shared by the nodes (no cv_bridge needed)."""
+"""sensor_msgs/Image to a BGR array for the tracker (no cv_bridge needed)."""
 from __future__ import annotations
 
+import cv2
 import numpy as np
-
-
-def stamp_to_seconds(stamp) -> float:
-    return stamp.sec + stamp.nanosec * 1e-9
-
-
-def seconds_to_stamp(seconds: float, stamp_type):
-    ns = int(round(seconds * 1e9))
-    return stamp_type(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
 def image_to_bgr(msg) -> np.ndarray:
     """sensor_msgs/Image (bgr8, rgb8, mono8) to a BGR array."""
-    import cv2
-
     channels = {"bgr8": 3, "rgb8": 3, "mono8": 1}.get(msg.encoding)
     if channels is None:
         raise ValueError(f"unsupported image encoding `{msg.encoding}` (bgr8, rgb8, mono8)")

@@ -1,0 +1,225 @@
+"""Where the ball is in a frame: the searches the tracker runs. Each returns (candidate, Lab pixels, roi) of the
+blob it settles on, or (None, ...) (the Lab pixels and their roi give the colour learning the ball's pixels).
+
+- `near`: around a running track's prediction; the gate grows while the track coasts.
+- `solid_elsewhere`: a whole ball away from the partial blob a weak track follows.
+- `on_field`: anywhere on the field, for a new track (at half resolution where the ball is big enough there;
+  the blobs that nearly pass are measured again at full resolution). It remembers the partial balls it saw,
+  and `partial_run` starts a track on a run of them.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import cv2
+import numpy as np
+
+from .candidate_rules import (
+    ACQUIRE_WINDOW,
+    MAX_GATE,
+    MAX_SPILL,
+    MIN_PARTIAL_FILL,
+    MIN_SCORE,
+    PARTIAL_MIN_RATIO,
+    PARTIAL_MIN_SCORE,
+    PARTIAL_NEAR,
+    CandidateRules,
+    Fixtures,
+    confident,
+    same_ball_reach,
+    solid,
+)
+from .detector import BallDetector, Candidate, ColourModel
+from .field_view import FieldView
+from .velocity import KalmanState
+
+BAND_SEEDS_NEAR = False
+COAST_SPEED = 1.5  # m/s: the speed change a hit can give a hidden ball, for the gate while a track coasts
+HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.3, 0.4  # field search at half resolution: blobs worth a full-resolution look
+# Where figures are guarded against, a new track from partial blobs alone: this many frames running of a partly
+# hidden ball (a ball coming out from under a rod, or resting beside one, while no track runs) whose centres lie
+# on one straight, steady path (within PARTIAL_RUN_FIT m RMS), moving or at rest. Never otherwise (a white ball
+# without the mask): a figure of the ball's colour sliding with its rod (or at rest) makes such a run. 0: off.
+PARTIAL_RUN, PARTIAL_RUN_FIT = 4, 0.003
+NOTHING = (None, None, None)
+
+
+class BallSearch:
+    """The searches of one tracker, with the ball's colour they look for (`detector`, replaced when the colour
+    is voted or learned) and what they remember: the table's fixtures and the partial balls of recent frames."""
+
+    def __init__(self, view: FieldView, detector: BallDetector):
+        self.view = view
+        self.detector = detector
+        self.rules = CandidateRules(view)
+        self.fixtures = Fixtures()
+        self._field_lab = None  # Lab pixels of the latest full-resolution field search (of view.roi)
+        self._partial_history: deque = deque(maxlen=max(1, PARTIAL_RUN))  # (t, [found tuples]) of field searches
+
+    @property
+    def colour(self) -> ColourModel:
+        return self.detector.model
+
+    def near(self, bgr: np.ndarray, state: KalmanState, coast: float = 0.0, coast_frames: int = 0):
+        """The ball near the predicted state; coast: seconds since the last detection, coast_frames: frames."""
+        view = self.view
+        ppm = view.mapping.pixels_per_metre(state.x[:2])
+        radius = view.table.ball_radius * ppm
+        sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
+        # While the ball is hidden it may be hit (a foot, a wall): the longer the track coasts, the further
+        # from the prediction a whole ball may reappear.
+        gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
+        centre = view.table_to_pixel(state.x[:2])
+        found, lab, roi = self._window(bgr, centre, gate, gate + 2 * radius + 2, use_band=True,
+                                       band_seeds=BAND_SEEDS_NEAR, partial_reach=PARTIAL_NEAR * radius + 2.0 * sigma)
+        offset = math.inf if found is None else math.hypot(found.u - centre[0], found.v - centre[1])
+        if found is not None and found.spill > MAX_SPILL and (coast_frames > 0 or offset > PARTIAL_NEAR * radius
+                                                                + 2.0 * sigma):
+            # Merged with something of its colour (a ball against a figure, or a figure's bar alone): its centre
+            # is pulled toward the figure, so it only carries a track that has not lost the ball, and only
+            # where the ball is expected. A coasting track would slide onto the figure.
+            return None, lab, roi
+        if found is not None and not solid(found) and self.rules.on_a_foot(found):
+            return None, lab, roi
+        if found is not None and not confident(found):
+            # A partly hidden ball is followed only where it is expected; further out, only a whole ball
+            # counts, so a figure of the ball's colour cannot take the track over.
+            if offset > min(gate, 2.0 * radius + 2 * sigma + 2.0):
+                return None, lab, roi
+            # After the ball has been lost for a few frames, the outline of a figure (its edge pixels blend
+            # into the ball's hue) must not restart the track: it is a thin ring with little inside, while a
+            # ball coming out from under a foot shows a solid part. (A rod across a tracked ball's middle
+            # also empties its inside, so this holds only while coasting.)
+            if coast_frames >= 2 and found.fill < MIN_PARTIAL_FILL:
+                return None, lab, roi
+        # Nor may a track that has lost the ball go on with a figure of its colour, joined in (nearly) that
+        # colour to the rod it covers: the end of a kicked leg (the hands video: the leg beside the hand that had
+        # just picked the ball up), or, seen from the side, the legs below the rod. Not before the ball is lost:
+        # a ball touching a figure of its colour is that too (applied in every frame: recall -1 to -7 points in
+        # six red and orange videos).
+        if found is not None and coast_frames >= 1 and self.rules.joined_to_a_covered_rod(
+                bgr, found, self.colour, strict=confident(found)):
+            return None, lab, roi
+        return found, lab, roi
+
+    def solid_elsewhere(self, bgr: np.ndarray, tracked: Candidate):
+        """A whole ball away from the tracked blob, found with the shading-tolerant colour (or nothing); not a
+        figure's legs (CandidateRules.starts_track)."""
+        radius = self.view.radius_at_pixel(tracked.u, tracked.v)
+        loose = [c for c in self._field(bgr) if c.area_ratio >= 0.4 and c.roundness >= 0.6
+                 and math.hypot(c.u - tracked.u, c.v - tracked.v) >= 3 * radius
+                 and not self.fixtures.is_fixture(c, count=False)]
+        for c in sorted(loose, key=lambda c: -c.score)[:3]:
+            r = self.view.radius_at_pixel(c.u, c.v)
+            found = self._window(bgr, np.array([c.u, c.v]), 2 * r + 3, 2 * r + 3, use_band=True)
+            if (found[0] is not None and solid(found[0]) and found[0].score >= tracked.score + 0.15
+                    and not self.rules.joined_to_a_covered_rod(bgr, found[0], self.colour, strict=True)):
+                return found
+        return NOTHING
+
+    def on_field(self, bgr: np.ndarray, t: float):
+        """The best blob on the field to start a track on; the partial balls seen are kept for partial_run."""
+        partials: list = []
+        found = self._best_on_field(bgr, partials)
+        self._partial_history.append((t, partials))
+        return found
+
+    def forget_partials(self) -> None:
+        """A track started: the partial balls seen so far start no other."""
+        self._partial_history.clear()
+
+    def _best_on_field(self, bgr: np.ndarray, partials: list):
+        candidates = self._field(bgr)
+        colour, roi = self.colour, self.view.roi
+        if self.view.search_scale == 1.0:
+            good = [c for c in candidates if self.rules.starts_track(bgr, c, colour) and not self.fixtures.is_fixture(c)]
+            if not good:
+                partials += [(c, self._field_lab, roi) for c in candidates
+                             if self.rules.partial_ball(bgr, c, colour) and not self.fixtures.is_fixture(c, count=False)]
+            return (max(good, key=lambda c: c.score), self._field_lab, roi) if good else NOTHING
+        # Found at half resolution, where a ball of a few pixels looks less round and smaller than it is: the
+        # blobs that nearly pass are measured again on the full-resolution pixels around them, and judged there.
+        near_misses = [c for c in candidates if c.area_ratio >= HALF_RES_RATIO and c.roundness >= HALF_RES_ROUNDNESS
+                       and not self.fixtures.is_fixture(c)]
+        for c in sorted(near_misses, key=lambda c: -c.score)[:3]:
+            radius = self.view.radius_at_pixel(c.u, c.v)
+            found = self._window(bgr, np.array([c.u, c.v]), 2 * radius + 3, 2 * radius + 3)
+            if found[0] is not None and self.rules.starts_track(bgr, found[0], colour):
+                return found
+            if found[0] is not None and self.rules.partial_ball(bgr, found[0], colour):
+                partials.append(found)
+        return NOTHING
+
+    def partial_run(self, figures_guarded: bool):
+        """A new track from PARTIAL_RUN frames running of partial blobs on one steady path (or nothing); only
+        where figures are guarded against: a figure sliding with its rod is a partial blob on a steady path too."""
+        history = list(self._partial_history)
+        if PARTIAL_RUN < 2 or len(history) < PARTIAL_RUN or not figures_guarded:
+            return NOTHING
+        history = history[-PARTIAL_RUN:]
+        if any(b[0] - a[0] > ACQUIRE_WINDOW for a, b in zip(history, history[1:])):
+            return NOTHING
+        for found in history[-1][1]:
+            chain = [(history[-1][0], found[0])]
+            for t_prev, previous in reversed(history[:-1]):
+                t_last, last = chain[-1]
+                reach = same_ball_reach(self.view, last.u, last.v, t_last - t_prev)
+                near = [f[0] for f in previous if math.hypot(f[0].u - last.u, f[0].v - last.v) <= reach]
+                if not near:
+                    break
+                chain.append((t_prev, min(near, key=lambda c: math.hypot(c.u - last.u, c.v - last.v))))
+            if len(chain) < PARTIAL_RUN:
+                continue
+            ts = np.array([t for t, _ in chain])
+            xy = np.array([self.view.pixel_to_table(c.u, c.v) for _, c in chain])
+            design = np.stack([np.ones_like(ts), ts - ts[0]], axis=1)
+            coef, *_ = np.linalg.lstsq(design, xy, rcond=None)
+            residual = float(np.sqrt(np.mean(np.sum((design @ coef - xy) ** 2, axis=1))))
+            if residual <= PARTIAL_RUN_FIT:
+                return found
+        return NOTHING
+
+    def _field(self, bgr: np.ndarray) -> list[Candidate]:
+        """Candidates anywhere on the field; at half resolution when the ball is big enough (4x cheaper)."""
+        view = self.view
+        s = view.search_scale
+        if s == 1.0:
+            candidates, self._field_lab, _ = self.detector.candidates(bgr, view.roi, view.radius_at_pixel,
+                                                                      view.min_radius, view.active_region,
+                                                                      use_band=False, hidden=view.hidden,
+                                                                      felt_ab=view.felt_ab)
+            return [c for c in candidates if not self.rules.covers_rod(bgr, c, self.colour)]
+        x0, y0, x1, y1 = view.roi
+        small = cv2.resize(bgr[y0:y1, x0:x1], None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+        h, w = small.shape[:2]
+        # Every blob found here is measured again at full resolution before it counts: no outline fits.
+        candidates, _, _ = self.detector.candidates(
+            small, (0, 0, w, h), lambda u, v: s * view.radius_at_pixel(x0 + (u + 0.5) / s - 0.5, y0 + (v + 0.5) / s - 0.5),
+            s * view.min_radius, view.active_region_small, use_band=False, fit_outline=False)
+        for c in candidates:
+            c.u, c.v = x0 + (c.u + 0.5) / s - 0.5, y0 + (c.v + 0.5) / s - 0.5
+        return candidates
+
+    def _window(self, bgr: np.ndarray, centre: np.ndarray, gate: float, half: float, use_band: bool = False,
+                band_seeds: bool = False, partial_reach: float = 0.0):
+        """The best candidate within gate px of centre, searched in a square of half width half. Blobs that
+        score too low for a ball count only within partial_reach px (a half ball where one is expected)."""
+        view = self.view
+        h, w = bgr.shape[:2]
+        x0, y0 = max(0, int(centre[0] - half)), max(0, int(centre[1] - half))
+        x1, y1 = min(w, int(centre[0] + half) + 1), min(h, int(centre[1] + half) + 1)
+        if x1 - x0 < 3 or y1 - y0 < 3:
+            return NOTHING
+        roi = (x0, y0, x1, y1)
+        candidates, lab, _ = self.detector.candidates(bgr, roi, view.radius_at_pixel, view.min_radius,
+                                                      view.active_region, use_band=use_band, band_seeds=band_seeds,
+                                                      hidden=view.hidden, felt_ab=view.felt_ab)
+        near = [c for c in candidates if math.hypot(c.u - centre[0], c.v - centre[1]) <= gate
+                and (c.score > MIN_SCORE or (c.score > PARTIAL_MIN_SCORE and c.area_ratio >= PARTIAL_MIN_RATIO
+                                             and math.hypot(c.u - centre[0], c.v - centre[1]) <= partial_reach))
+                and not self.rules.covers_rod(bgr, c, self.colour)]
+        if not near:
+            return None, lab, roi
+        best = min(near, key=lambda c: math.hypot(c.u - centre[0], c.v - centre[1]) / gate - c.score)
+        return best, lab, roi
