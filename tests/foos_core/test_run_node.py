@@ -10,7 +10,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-DOMAIN = "5"  # foos_core's ROS_DOMAIN_ID range is 1-9 (foos_sim 10-19, foos_bag 20-39, vision 40-59, policy 60-79, calibration 80-99)
+DOMAIN = "5"  # foos_core's ROS_DOMAIN_ID range is 1-9 (foos_sim 10-19, foos_bag 20-39, vision 40-59, policy 60-79,
+# calibration 80-99, viewer 100-101)
 
 NODE = """
 import sys

@@ -13,7 +13,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / "ros2_ws" / "src"
 # The data path, bottom to top: a package may import those before it, never one after it.
-LAYERS = ("foos_core", "foos_bag", "foos_sim", "foos_vision", "foos_calibration", "foos_policy")
+LAYERS = ("foos_core", "foos_bag", "foos_sim", "foos_vision", "foos_calibration", "foos_policy", "foos_viewer")
 MAX_LINES = 700
 
 
