@@ -51,18 +51,21 @@ class HiddenEffects:
             name, p = effect.get("name"), effect.get("params", {})
             if name not in EFFECT_NAMES:
                 raise EffectError(f"unknown effect `{name}`")
-            if name == "table_tilt":
-                hidden.slope = (float(p["slope_x"]), float(p["slope_y"]))
-            elif name == "rolling_resistance":
-                hidden.rolling_deceleration = float(p["deceleration"])
-            elif name == "viscous_damping":
-                hidden.viscous_rate = float(p["rate"])
-            elif name == "air_drag":
-                hidden.drag_coefficient = float(p["coefficient"])
-            elif name == "surface_dent":
-                hidden.dents.append(Dent(float(p["x"]), float(p["y"]), float(p["radius"]), float(p["depth"])))
-            elif name == "wall_restitution":
-                hidden.restitution = float(p["coefficient"])
+            try:
+                if name == "table_tilt":
+                    hidden.slope = (float(p["slope_x"]), float(p["slope_y"]))
+                elif name == "rolling_resistance":
+                    hidden.rolling_deceleration = float(p["deceleration"])
+                elif name == "viscous_damping":
+                    hidden.viscous_rate = float(p["rate"])
+                elif name == "air_drag":
+                    hidden.drag_coefficient = float(p["coefficient"])
+                elif name == "surface_dent":
+                    hidden.dents.append(Dent(float(p["x"]), float(p["y"]), float(p["radius"]), float(p["depth"])))
+                elif name == "wall_restitution":
+                    hidden.restitution = float(p["coefficient"])
+            except KeyError as missing:
+                raise EffectError(f"effect `{name}` needs the parameter {missing}") from None
         return hidden
 
 

@@ -7,17 +7,20 @@ ball's visible share is that at t_k times the share of the sub-frames it is in s
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Callable, Iterator, Optional
+from typing import Callable, Iterator, Optional, Sequence
 
 import cv2
 import mujoco
 import numpy as np
+import yaml
+from tqdm import tqdm
 
 from foos_core.names import BALL_JOINT, JOINT_NAMES
 
 from .camera import CameraConfig
+from .errors import VisionError
 from .hands import AWAY_Z, HAND_BODY, HandPose
 from .markers import MarkerLayout
 from .scene import (
@@ -46,6 +49,9 @@ class RenderOptions:
     home_colour: Optional[tuple[float, float, float]] = None  # the figures' RGB; None: foos_sim's red
     away_colour: Optional[tuple[float, float, float]] = None  # None: foos_sim's blue
     hands: bool = False  # the scene has a player's hand (foos_vision.hands), posed per frame by render_frames' hand_at
+    # Shadows are most of a frame's cost on a software renderer (Mesa's llvmpipe: 3x); a video to watch can do
+    # without them, a video to track is rendered with them.
+    shadows: bool = True
     seed: int = 0
 
 
@@ -105,6 +111,7 @@ class SceneRenderer:
         self.data = mujoco.MjData(self.model)
         ideal = self.ideal_camera
         self.renderer = mujoco.Renderer(self.model, ideal.height, ideal.width)
+        self.renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = options.shadows
         self.segmenter: Optional[mujoco.Renderer] = None
         if options.visibility:
             self.segmenter = mujoco.Renderer(self.model, ideal.height, ideal.width)
@@ -212,6 +219,123 @@ def render_frames(renderer: SceneRenderer, state_at: StateAt, n_frames: int,
             # scaled by it too (occlusion by figures is taken at t_k alone).
             truth.visible *= in_sight / len(images)
         yield renderer.finish(images), truth
+
+
+Bgr = tuple[int, int, int]
+MIN_MARK_PIXELS = 4  # a ball is drawn at least this large (radius, px), so a small video still shows it
+
+
+@dataclass(frozen=True)
+class BallMark:
+    """A ball drawn over the rendered image, for a viewer to compare: the measured ball, a table's prediction.
+
+    style: `dot` (filled, 0.6 of the ball: the rendered ball stays visible around it), `disc` (filled, the
+    ball's size) or `ring` (an outline ring_gap px outside the ball; rings of several tables with different gaps
+    stay apart from each other and from the disc they follow where they coincide)."""
+
+    label: str
+    colour: Bgr
+    style: str = "dot"
+    ring_gap: int = 2
+
+
+MEASURED_COLOUR: Bgr = (255, 0, 255)  # magenta: far from the field's green, the teams' red and blue, every ball colour
+LEGEND_TEXT: Bgr = (240, 240, 240)
+
+
+class BallOverlay:
+    """Draws BallMarks at table-frame ball centres through the camera (lens included), and a small legend."""
+
+    def __init__(self, camera: CameraConfig, marks: Sequence[BallMark], ball_radius: float):
+        self.camera, self.marks, self.ball_radius = camera, list(marks), ball_radius
+        self.focal = float(camera.camera_matrix()[0, 0])
+        self.text_scale = max(0.35, camera.width / 1400)
+
+    def pixel(self, position: np.ndarray) -> tuple[np.ndarray, float]:
+        """The pixel of a ball centre and the ball's radius there, px."""
+        point = np.asarray(position, float).reshape(1, 3)
+        depth = float(self.camera.depth(point)[0])
+        radius = self.focal * self.ball_radius / max(depth, 1e-3)
+        return self.camera.project(point)[0], max(radius, MIN_MARK_PIXELS)
+
+    def _draw(self, image: np.ndarray, mark: BallMark, centre, radius: float) -> None:
+        shift = 4  # sub-pixel positions: cv2 draws in 1/16 px
+        c = (int(round(centre[0] * 16)), int(round(centre[1] * 16)))
+        if mark.style == "ring":
+            # 3 px wide: a thinner ring loses its colour to the video's chroma subsampling (2x2 pixels share one)
+            cv2.circle(image, c, int(round((radius + mark.ring_gap) * 16)), mark.colour, 3, cv2.LINE_AA, shift)
+            return
+        r = radius * (0.6 if mark.style == "dot" else 1.0)
+        cv2.circle(image, c, int(round((r + 1) * 16)), (20, 20, 20), -1, cv2.LINE_AA, shift)
+        cv2.circle(image, c, int(round(r * 16)), mark.colour, -1, cv2.LINE_AA, shift)
+
+    def __call__(self, image: np.ndarray, positions: Sequence[Optional[np.ndarray]],
+                 notes: Optional[Sequence[str]] = None, caption: str = "",
+                 trails: Optional[Sequence[Optional[np.ndarray]]] = None) -> np.ndarray:
+        """Draws each mark at its position (None or NaN: not drawn), then the legend; image is BGR, changed in place.
+        notes: a text per mark appended to its legend line (e.g. its distance to the measurement); trails: per mark,
+        the ball centres (k, 3) it came along, drawn as a thin line under the marks."""
+        for mark, trail in zip(self.marks, trails or []):
+            finite = trail[np.all(np.isfinite(trail), axis=1)] if trail is not None else np.zeros((0, 3))
+            if len(finite) >= 2:
+                line = np.round(self.camera.project(finite) * 16).astype(np.int32)
+                cv2.polylines(image, [line], False, mark.colour, 1, cv2.LINE_AA, 4)
+        for mark, position in zip(self.marks, positions):
+            if position is not None and np.all(np.isfinite(position)):
+                self._draw(image, mark, *self.pixel(position))
+        self.legend(image, notes, caption)
+        return image
+
+    def legend(self, image: np.ndarray, notes: Optional[Sequence[str]] = None, caption: str = "") -> None:
+        scale, font = self.text_scale, cv2.FONT_HERSHEY_SIMPLEX
+        lines = [f"{m.label}{'  ' + notes[i] if notes and notes[i] else ''}" for i, m in enumerate(self.marks)]
+        if caption:
+            lines.append(caption)
+        line_height = int(round(22 * scale / 0.5))
+        width = max(cv2.getTextSize(text, font, scale, 1)[0][0] for text in lines) + 3 * line_height // 2 + 8
+        height = line_height * len(lines) + 6
+        box = image[2:2 + height, 2:2 + width]
+        box[:] = (box * 0.35).astype(np.uint8)  # darkened, so the legend reads over the table
+        swatch = line_height * 0.3
+        for i, text in enumerate(lines):
+            y = 2 + line_height * (i + 1) - line_height // 4
+            if i < len(self.marks):  # every swatch the same size: a ring just outside it
+                self._draw(image, replace(self.marks[i], ring_gap=1), (8 + line_height / 2, y - line_height * 0.3), swatch)
+            cv2.putText(image, text, (8 + line_height, y), font, scale, LEGEND_TEXT, 1, cv2.LINE_AA)
+
+
+FrameOverlay = Callable[[int, np.ndarray, FrameTruth], None]
+"""Draws on frame k's BGR image (in place), given its truth."""
+
+
+def write_video(out: Path, renderer: SceneRenderer, state_at: StateAt, n_frames: int, truths: list[FrameTruth],
+                hand_at: Optional[HandAt] = None, overlay: Optional[FrameOverlay] = None, quiet: bool = False,
+                desc: str = "render_video") -> None:
+    """Renders frames 0..n_frames-1 into an mp4v video at out, appending their truths to truths as it goes (so what
+    was rendered before an interruption keeps its truth)."""
+    camera = renderer.camera
+    out.parent.mkdir(parents=True, exist_ok=True)
+    writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), camera.fps, (camera.width, camera.height))
+    if not writer.isOpened():
+        raise VisionError(f"{out}: OpenCV cannot write an mp4v video here")
+    try:
+        for frame, truth in tqdm(render_frames(renderer, state_at, n_frames, hand_at), total=n_frames,
+                                 desc=desc, unit="frame", disable=quiet):
+            if overlay is not None:
+                overlay(len(truths), frame, truth)
+            writer.write(frame)
+            truths.append(truth)
+    finally:
+        writer.release()
+
+
+def write_camera(path: Path, camera: CameraConfig) -> None:
+    """The camera a video was filmed with, and its OpenCV intrinsics (`intrinsics:`, what track_video takes)."""
+    tree = {key: (list(v) if isinstance(v, tuple) else v) for key, v in camera.__dict__.items()}
+    tree["intrinsics"] = {"model": camera.model, "image_width": camera.width, "image_height": camera.height,
+                          "camera_matrix": camera.camera_matrix().round(6).tolist(),
+                          "dist_coeffs": [float(v) for v in camera.dist_coeffs()]}
+    path.write_text(yaml.safe_dump(tree, sort_keys=False))
 
 
 def write_truth(path: Path, truths: list[FrameTruth]) -> None:

@@ -5,24 +5,37 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import Optional
 
-import cv2
 import numpy as np
 import yaml
-from tqdm import tqdm
 
+from foos_core.names import BALL_DETECTION_TOPIC, BALL_STATE_TOPIC, JOINT_STATES_TOPIC
+from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 from foos_sim.model_builder import build_mjcf
 from foos_sim.simulation import TableSimulation
 
-from .bag_inputs import read_recorded_states
+from .bag_inputs import RecordedStates, read_recorded_states
 from .camera import load_camera
 from .cli_util import run_cli
 from .errors import VisionError
 from .hands import HandScript
 from .markers import DEFAULT_MARKERS_FILE, load_markers
-from .render import RenderOptions, SceneRenderer, render_frames, write_joints, write_truth
-from .scenarios import SimRollout, StateReplay
+from .render import (
+    MEASURED_COLOUR,
+    BallMark,
+    BallOverlay,
+    FrameOverlay,
+    FrameTruth,
+    RenderOptions,
+    SceneRenderer,
+    write_camera,
+    write_joints,
+    write_truth,
+    write_video,
+)
+from .scenarios import SimRollout, StateReplay, detections_at
 from .scene import BALL_COLOURS, FIGURE_COLOURS
 
 DESCRIPTION = """\
@@ -40,6 +53,7 @@ Examples:
   render_video out/roll.mp4 --scenario rolls --duration 20 --params-file tilted.yaml
   render_video out/play.mp4 --camera oblique --fps 60 --ball-color yellow --blur 4 --distortion -0.2,0.05
   render_video out/replay.mp4 --bag recorded_bag --camera overhead
+  render_video out/game.mp4 --bag out/game --no-shadows --noise 0 --fps 15   (a game to watch, quickly)
   render_video out/clip.mp4 --camera fisheye --ball-color yellow --blur 4   (1080p, 25 fps, fisheye)
   render_video out/hands.mp4 --ball-color orange --hide-every 1 --hide-for 0.3 --hands   (a hand picks it up)
   render_video out/same.mp4 --ball-color yellow --home-color yellow --away-color black   (figures of its colour)
@@ -50,6 +64,12 @@ equidistant model, r = f theta_d; --fovy is then the field of its r = f theta pa
 same focal length and is made larger, up to 1.5 times the output per axis; rays beyond it (the corners
 of a very wide lens) are black, like a real fisheye's vignette. OUT.camera.yaml's `intrinsics:` block
 (with `model: fisheye`) is what track_video --intrinsics and tracker_node take.
+
+--bag replays /ball/state (the ball in the scene) and /joint_states (the rods), and draws the measured
+ball of /ball/detection over the image as a magenta dot, with a legend. A bag without /joint_states (a
+table without rod encoders) is filmed with the rods centred and the figures hanging; without /ball/state,
+only the measured ball is drawn. To see where a simulated table parts from a measurement, use
+`ros2 run foos_calibration twin_video`.
 """
 
 
@@ -87,7 +107,8 @@ def build_parser() -> argparse.ArgumentParser:
     src.add_argument("--scenario", choices=("play", "rolls"), default="play",
                      help="play: rods moving and kicking, random rolls 0.3-3 m/s; rolls: rods lifted, "
                           "free rolls (for calibration). Default play")
-    src.add_argument("--bag", help="replay /ball/state and /joint_states from this bag instead of simulating")
+    src.add_argument("--bag", help="replay /ball/state and /joint_states from this bag instead of simulating, and draw "
+                                   "its measured ball (/ball/detection)")
     src.add_argument("--params-file", help="table parameter file for the simulation (default: the nominal table)")
     src.add_argument("--duration", type=float, default=5.0, help="seconds of video (default 5; a bag: its length)")
     src.add_argument("--hide-every", type=float, default=0.0,
@@ -120,6 +141,8 @@ def build_parser() -> argparse.ArgumentParser:
     look.add_argument("--noise", type=float, default=1.5, help="sensor noise std, 8-bit levels (default 1.5)")
     look.add_argument("--lighting", type=float, default=1.0, help="light intensity scale (default 1)")
     look.add_argument("--visibility", action="store_true", help="measure the visible fraction of the ball per frame (2x slower)")
+    look.add_argument("--no-shadows", action="store_true",
+                      help="render without shadows: 3x faster on a software renderer, for a video to watch")
     p.add_argument("--overwrite", action="store_true", help="replace existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
@@ -157,8 +180,12 @@ def render_video(args: argparse.Namespace) -> int:
     params = load_params(args.params_file)
     sim = TableSimulation(params=params)
     if args.bag:
-        rollout = StateReplay(sim, *read_recorded_states(args.bag))
+        recorded = read_recorded_states(args.bag)
+        rollout = StateReplay(sim, recorded)
         duration = min(args.duration, rollout.duration) if "--duration" in sys.argv else rollout.duration
+        if recorded.joint_t is None:
+            print(f"render_video: {args.bag} has no {JOINT_STATES_TOPIC} (a table without rod encoders): "
+                  "the rods are drawn centred, figures hanging", file=sys.stderr)
     else:
         rollout = SimRollout(sim, args.scenario, seed=args.seed, hide_every=args.hide_every, hide_for=args.hide_for,
                              no_ball=args.no_ball)
@@ -166,32 +193,22 @@ def render_video(args: argparse.Namespace) -> int:
     n_frames = int(math.floor(duration * camera.fps)) + 1
     options = RenderOptions(camera=camera, ball_colour=args.ball_color, subframes=args.blur, exposure=args.exposure,
                             noise=args.noise, lighting=args.lighting, visibility=args.visibility, seed=args.seed,
-                            hands=args.hands, home_colour=args.home_color, away_colour=args.away_color)
+                            hands=args.hands, home_colour=args.home_color, away_colour=args.away_color,
+                            shadows=not args.no_shadows)
+    ball_radius = TableGeometry.from_params(params).ball_radius
+    overlay = measured_overlay(recorded, camera, args.ball_color, ball_radius) if args.bag else None
     hand_at = HandScript(rollout).pose if args.hands else None
     renderer = SceneRenderer(build_mjcf(params=params), layout, options)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), camera.fps, (camera.width, camera.height))
-    if not writer.isOpened():
-        raise VisionError(f"{out}: OpenCV cannot write an mp4v video here")
-    truths = []
+    truths: list[FrameTruth] = []
     try:
-        for frame, truth in tqdm(render_frames(renderer, rollout.state_at, n_frames, hand_at), total=n_frames,
-                                 desc="render_video", unit="frame", disable=args.quiet):
-            writer.write(frame)
-            truths.append(truth)
+        write_video(out, renderer, rollout.state_at, n_frames, truths, hand_at, overlay, args.quiet)
     finally:
-        writer.release()
         renderer.close()
         # Whatever was rendered keeps its truth, even after Ctrl-C.
         if truths:
             write_truth(outputs[1], truths)
             write_joints(outputs[4], truths)
-    k = camera.camera_matrix()
-    camera_tree = {key: (list(v) if isinstance(v, tuple) else v) for key, v in camera.__dict__.items()}
-    camera_tree["intrinsics"] = {"model": camera.model, "image_width": camera.width, "image_height": camera.height,
-                                 "camera_matrix": k.round(6).tolist(),
-                                 "dist_coeffs": [float(v) for v in camera.dist_coeffs()]}
-    outputs[2].write_text(yaml.safe_dump(camera_tree, sort_keys=False))
+    write_camera(outputs[2], camera)
     outputs[3].write_text(yaml.safe_dump({
         "dictionary": layout.dictionary, "size": layout.size,
         "markers": {int(i): [float(v) for v in p] for i, p in sorted(layout.positions.items())},
@@ -200,6 +217,22 @@ def render_video(args: argparse.Namespace) -> int:
     print(f"render_video: {len(truths)} frames {camera.width}x{camera.height} @ {camera.fps:g} fps -> {out}"
           + (f" (ball at least half visible in {np.mean(visible >= 0.5):.0%} of frames)" if args.visibility else ""))
     return 0
+
+
+def measured_overlay(recorded: RecordedStates, camera, ball_colour, ball_radius: float) -> Optional[FrameOverlay]:
+    """Draws the bag's measured ball (/ball/detection, at each frame's time) over the rendered one, with a legend;
+    None when the bag has no detections."""
+    if recorded.detection_t is None:
+        return None
+    scene_ball = BallMark(f"ball: {BALL_STATE_TOPIC}", tuple(int(round(255 * c)) for c in reversed(ball_colour)), "disc")
+    measured = BallMark(f"measured: {BALL_DETECTION_TOPIC}", MEASURED_COLOUR, "dot")
+    draw = BallOverlay(camera, [scene_ball, measured] if recorded.t is not None else [measured], ball_radius)
+
+    def overlay(k: int, image: np.ndarray, truth: FrameTruth) -> None:
+        seen = detections_at(recorded.detection_t, recorded.detection_position, [recorded.start + truth.t])[0]
+        draw(image, [None, seen] if recorded.t is not None else [seen], caption=f"t = {truth.t:.2f} s")
+
+    return overlay
 
 
 def main(argv=None) -> None:

@@ -5,7 +5,7 @@
 - `rolls`: rods turned horizontal and held there, random rolls only: clean rolling data for
   calibrating rolling resistance and table tilt.
 - `StateReplay`: ball and rod states recorded by sim_node or a tracker (bag_inputs reads them from a bag),
-  replayed and interpolated.
+  replayed and interpolated; `detections_at`: the measured ball (/ball/detection) at the frame times.
 """
 from __future__ import annotations
 
@@ -106,29 +106,50 @@ class SimRollout:
         return sim.data.qpos.copy(), sim.ball_velocity(), hidden
 
 
-class StateReplay:
-    """Recorded ball and rod states, interpolated to the requested times (time 0 = the first ball state)."""
+MAX_DETECTION_GAP = 0.1  # s: detections further apart than this are not joined (the camera lost the ball between)
 
-    def __init__(self, sim: TableSimulation, t: np.ndarray, ball_position: np.ndarray, ball_velocity: np.ndarray,
-                 joint_t: Optional[np.ndarray] = None, joint_position: Optional[np.ndarray] = None):
-        """t: (N,) s of the ball states, sorted; joint_position: (M, 16) in JOINT_NAMES order at joint_t (M,) s, or
-        None: the rods stay as the model has them."""
+
+def detections_at(t: np.ndarray, position: np.ndarray, times: np.ndarray, max_gap: float = MAX_DETECTION_GAP) -> np.ndarray:
+    """The measured ball at each of times, (n, 3): interpolated between the two detections around it when they are
+    at most max_gap apart, NaN elsewhere (before the first, after the last, across a longer gap). t: (N,) sorted."""
+    times = np.atleast_1d(np.asarray(times, float))
+    out = np.full((len(times), 3), np.nan)
+    after = np.searchsorted(t, times, side="right")  # t[after - 1] <= time < t[after]
+    inside = (after > 0) & (after < len(t))
+    a, b = after[inside] - 1, after[inside]
+    joined = t[b] - t[a] <= max_gap
+    weight = ((times[inside] - t[a]) / (t[b] - t[a]))[:, None]
+    between = position[a] * (1 - weight) + position[b] * weight
+    out[np.flatnonzero(inside)[joined]] = between[joined]
+    out[times == t[-1]] = position[-1]
+    return out
+
+
+class StateReplay:
+    """Recorded ball and rod states (bag_inputs.RecordedStates), interpolated to the requested times; time 0 is the
+    recording's start. Without ball states the ball is out of sight (only the measured one is drawn, over the
+    image); without joint states the rods stay as the model has them: centred, figures hanging."""
+
+    def __init__(self, sim: TableSimulation, recorded):
         self.sim = sim
-        self.t0 = float(t[0])
-        self.ball_t, self.ball_p, self.ball_v = t - self.t0, ball_position, ball_velocity
-        self.joint_t = None if joint_t is None else joint_t - self.t0
-        self.joint_p = joint_position
-        self.duration = float(self.ball_t[-1])
+        self.t0 = recorded.start
+        self.duration = recorded.end - self.t0
+        self.ball_t = None if recorded.t is None else recorded.t - self.t0
+        self.ball_p, self.ball_v = recorded.ball_position, recorded.ball_velocity
+        self.joint_t = None if recorded.joint_t is None else recorded.joint_t - self.t0
+        self.joint_p = recorded.joint_position
         ball = sim.model.joint(BALL_JOINT)
         self.qpos_ball = ball.qposadr[0]
         self.qpos_joints = np.array([sim.model.joint(n).qposadr[0] for n in JOINT_NAMES])
 
     def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray, bool]:
         qpos = self.sim.data.qpos.copy()
+        if self.joint_t is not None:
+            qpos[self.qpos_joints] = [np.interp(t, self.joint_t, self.joint_p[:, i]) for i in range(len(JOINT_NAMES))]
+        if self.ball_t is None:
+            return qpos, np.zeros(3), True
         p = np.array([np.interp(t, self.ball_t, self.ball_p[:, i]) for i in range(3)])
         v = np.array([np.interp(t, self.ball_t, self.ball_v[:, i]) for i in range(3)])
         qpos[self.qpos_ball:self.qpos_ball + 3] = p
         qpos[self.qpos_ball + 3:self.qpos_ball + 7] = (1, 0, 0, 0)
-        if self.joint_t is not None:
-            qpos[self.qpos_joints] = [np.interp(t, self.joint_t, self.joint_p[:, i]) for i in range(len(JOINT_NAMES))]
         return qpos, v, False
