@@ -4,6 +4,8 @@
 Modules, one concern each. The tracker (ROS-free), along a frame's path:
 
   markers, geometry      the markers file; tags to the ball-plane homography, the lens
+  field_corners,         a table without tags: the field's corners given in pixels (parsed, checked),
+  corner_refine          and fitted to the table's edges in the first frame
   field_view             the field as the camera sees it: tag fit, searched region, rods on their steel,
                          the figures at this frame's joints, the ball's expected radius
   figure_mask, rod_lines the figures' and the rods' image from the foos_sim model and the camera

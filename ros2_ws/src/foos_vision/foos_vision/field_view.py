@@ -1,5 +1,6 @@
-"""The field as the camera sees it: the tag fit (the ball-plane homography), the region searched for the ball,
-the rods placed on the steel seen, this frame's figures masked out, and the ball's expected radius in pixels.
+"""The field as the camera sees it: the tag fit or the field's corners given (the ball-plane homography), the
+region searched for the ball, the rods placed on the steel seen, this frame's figures masked out, and the ball's
+expected radius in pixels.
 
 The table's dimensions are the parameter file's (foos_core.table_geometry; the regulation table by default),
 the rods' and figures' too (rod_lines.rod_geometry). A tag refit that moves the field by less than
@@ -13,11 +14,22 @@ import cv2
 import numpy as np
 
 from foos_core.table_geometry import TableGeometry
+from foos_core.table_params import load_params
 
+from .corner_refine import CornerRefinement, refine_field_corners
 from .errors import MarkersError
+from .field_corners import FieldCorners, FieldReference
 from .figure_mask import FigureGeometry, FigureMasker, projection_from_mapping
-from .geometry import MAX_TAG_RESIDUAL, Lens, PlaneMapping, TagLocator, fit_mapping
-from .markers import MarkerLayout
+from .geometry import (
+    MAX_TAG_RESIDUAL,
+    Lens,
+    PlaneMapping,
+    TagLocator,
+    corner_camera_matrix,
+    corner_focal,
+    fit_field_corners,
+    fit_mapping,
+)
 from .rod_lines import camera_centre, fit_rod_shifts, rod_axis_mask, rod_bands, rod_geometry, rod_mask
 
 if TYPE_CHECKING:  # tracker.py makes the view and imports this module: its types are only named here
@@ -36,13 +48,20 @@ class FieldView:
     positions) the figures are, and how large the ball looks at any pixel. Updated by refit() and, per frame,
     by set_figures()."""
 
-    def __init__(self, layout: MarkerLayout, config: TrackerConfig, stats: TrackerStats,
+    def __init__(self, layout: FieldReference, config: TrackerConfig, stats: TrackerStats,
                  figures: Optional[FigureGeometry] = None):
+        """layout: the markers file's tags, or the field's corners in the image (a camera that does not move)."""
         self.layout, self.config, self.stats, self.figures = layout, config, stats, figures
         self.table = TableGeometry.of(config.params_file)
         self.rods = rod_geometry(config.params_file)
+        walls = load_params(config.params_file)["field"]
+        self._wall = (float(walls["wall_height"]), float(walls["wall_thickness"]))  # the walls' top edges, corner_refine
         self.lens = Lens(config.intrinsics)
-        self.tags = TagLocator(layout, self.lens)
+        self.corners: Optional[FieldCorners] = layout if isinstance(layout, FieldCorners) else None
+        self.tags = TagLocator(layout, self.lens) if self.corners is None else None
+        self._corner_mapping: Optional[tuple[tuple[int, int], PlaneMapping]] = None  # (image size, its fit)
+        self.corner_refinement: Optional[CornerRefinement] = None  # the corners as fitted to the table's edges
+        self._corner_camera: Optional[np.ndarray] = None  # the camera matrix the corners reveal (or the hint's)
         self.mapping: Optional[PlaneMapping] = None
         self.last_tag_corners: dict[int, np.ndarray] = {}
         self.last_fit_error: Optional[str] = None
@@ -80,10 +99,37 @@ class FieldView:
             self.mapping = self._placed_for = None
         self._frame_size = size
 
-    # --- tags -------------------------------------------------------------------------------------
+    # --- tags or corners ---------------------------------------------------------------------------
     def refit(self, bgr: np.ndarray) -> None:
-        """Fit the homography to the tags in this frame; a fit the tags disagree with is refused (last_fit_error
-        says why) and the previous one kept."""
+        """Fit the homography to the tags in this frame, or to the field's corners given; a fit the tags disagree
+        with is refused (last_fit_error says why) and the previous one kept. Corners outside this frame:
+        FieldCornersError."""
+        mapping = self._corner_fit(bgr) if self.corners is not None else self._tag_fit(bgr)
+        if mapping is not None:
+            self._adopt(mapping, bgr)
+
+    def _corner_fit(self, bgr: np.ndarray) -> PlaneMapping:
+        """The mapping the field's corners give, fitted to the table's edges in the first frame of each image size
+        (the camera does not move)."""
+        size = (bgr.shape[1], bgr.shape[0])
+        if self._corner_mapping is None or self._corner_mapping[0] != size:
+            self.corners.check_in_image(*size)
+            t, intrinsics, hint = self.table, self.config.intrinsics, self.config.fovy_hint
+            given = self.lens.undistort(self.corners.pixels)
+            camera = corner_camera_matrix(given, t.half_width, t.half_length, size, intrinsics, hint)
+            focal_known = intrinsics is not None or corner_focal(given, t.half_width, t.half_length, size) is not None
+            self.corner_refinement = refine_field_corners(bgr, self.corners.pixels, self.lens, camera, focal_known,
+                                                          self.rods, t.half_width, t.half_length, t.goal_half_width,
+                                                          *self._wall)
+            refined = self.lens.undistort(self.corner_refinement.pixels)
+            self._corner_camera = corner_camera_matrix(refined, t.half_width, t.half_length, size, intrinsics, hint)
+            mapping = fit_field_corners(refined, t.half_width, t.half_length, t.ball_centre_height, size, intrinsics,
+                                        hint)
+            self._corner_mapping = (size, mapping)
+            self.stats.tag_fits += 1
+        return self._corner_mapping[1]
+
+    def _tag_fit(self, bgr: np.ndarray) -> Optional[PlaneMapping]:
         gray = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
         centres, corners = self.tags.detect(gray)
         self.stats.tags_seen |= set(centres)
@@ -94,18 +140,22 @@ class FieldView:
                                   self.config.fovy_hint)
         except MarkersError as error:
             self.last_fit_error = str(error)
-            return
+            return None
         if mapping.residual_m > MAX_TAG_RESIDUAL:
             self.stats.rejected_fits += 1
             # A lens that bends straight lines (a fisheye above all) does this too when it is not undistorted.
             lens_hint = "" if self.config.intrinsics is not None else ", or the lens needs --intrinsics"
             self.last_fit_error = (f"the tags seen are {mapping.residual_m * 1000:.0f} mm (RMS) away from where the "
                                    f"markers file puts them: the file does not describe this table{lens_hint}")
-            return
+            return None
         self.stats.tag_fits += 1
         self.last_fit_error = None
         for tag_id, error in (mapping.dropped or {}).items():
             self.stats.dropped_tags[tag_id] = max(error, self.stats.dropped_tags.get(tag_id, 0.0))
+        return mapping
+
+    def _adopt(self, mapping: PlaneMapping, bgr: np.ndarray) -> None:
+        """Take this fit's mapping: the field region, the rods on this frame's steel and the felt's colour."""
         if self.mapping is None or not np.allclose(mapping.image_to_table, self.mapping.image_to_table, atol=1e-9):
             # A refit that moves the field by a fraction of a pixel is tag noise, not a camera that moved: the rods
             # and the felt's colour are kept (placing the rods costs 12-20 ms).
@@ -149,7 +199,7 @@ class FieldView:
         pixels = self.lens.distort(self.mapping.to_image(np.array(dense)))
         region = np.zeros((height, width), np.uint8)
         cv2.fillPoly(region, [np.round(pixels).astype(np.int32)], 255)
-        k = self.config.intrinsics.camera_matrix if self.config.intrinsics is not None else None
+        k = self.config.intrinsics.camera_matrix if self.config.intrinsics is not None else self._corner_camera
         projection = projection_from_mapping(self.mapping, (width, height), k, self.config.fovy_hint)
         self.region = region
         self._make_radius_grid(width, height)

@@ -5,7 +5,8 @@ a tag's rotation on the table does not matter. With all tags in one plane at hei
 maps the image to that plane; when z_t differs from the ball-centre height the camera centre, found
 from the homography and the intrinsics (given, or a focal length estimated from the homography
 itself), moves each point along its viewing ray to the ball-centre plane. Tags at several heights
-give a full projection matrix (DLT) and need no intrinsics at all.
+give a full projection matrix (DLT) and need no intrinsics at all. The field's four corners (fit_field_corners)
+are a plane at the surface, z = 0, moved up to the ball plane the same way.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from .camera import Intrinsics
 from .errors import MarkersError
+from .field_corners import FieldCornersError
 from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 
 MIN_TAGS = 4
@@ -110,6 +112,10 @@ class PlaneMapping:
 
 
 MIN_FOVY_DEG = 10.0  # narrowest plausible vertical field of view, for the focal length a homography gives
+# The field's corners reveal the focal length only where moving one corner coordinate by CORNER_PROBE_PX changes
+# it by less than MAX_FOCAL_CHANGE (an oblique view; the 55-degree oblique render: 1-3 % per px).
+CORNER_PROBE_PX = 1.0
+MAX_FOCAL_CHANGE = 0.10
 
 
 def _focal_from_homography(plane_to_image: np.ndarray, principal: np.ndarray) -> Optional[float]:
@@ -142,17 +148,26 @@ def camera_matrix_for(plane_to_image: np.ndarray, image_size: tuple[int, int], k
     point at the image centre), else, for a straight-down view that reveals none, the field-of-view hint."""
     if known is not None:
         return known
+    return _camera_matrix(revealed_focal(plane_to_image, image_size), image_size, fovy_hint)
+
+
+def revealed_focal(plane_to_image: np.ndarray, image_size: tuple[int, int]) -> Optional[float]:
+    """The focal length (px) a plane's homography reveals with the principal point at the image centre, or None."""
     width, height = image_size
-    principal = np.array([width / 2 - 0.5, height / 2 - 0.5])
-    f = _focal_from_homography(plane_to_image, principal)
+    f = _focal_from_homography(plane_to_image, np.array([width / 2 - 0.5, height / 2 - 0.5]))
     # Near straight down the constraints are close to vanishing without falling below the test above, and
     # the focal length they give can be any size (200 000 px, a camera 690 m up, for the 1.9 m overhead
     # render): no lens a table is filmed through sees less than MIN_FOVY_DEG, so such a value is no answer.
     if f is not None and f > (height / 2) / math.tan(math.radians(MIN_FOVY_DEG) / 2):
         f = None
-    if f is None:
-        f = (height / 2) / math.tan(math.radians(fovy_hint) / 2)
-    return np.array([[f, 0, principal[0]], [0, f, principal[1]], [0, 0, 1.0]])
+    return f
+
+
+def _camera_matrix(focal: Optional[float], image_size: tuple[int, int], fovy_hint: float) -> np.ndarray:
+    """Square pixels, the principal point at the image centre; the field-of-view hint's focal length for None."""
+    width, height = image_size
+    f = focal if focal is not None else (height / 2) / math.tan(math.radians(fovy_hint) / 2)
+    return np.array([[f, 0, width / 2 - 0.5], [0, f, height / 2 - 0.5], [0, 0, 1.0]])
 
 
 def _camera_centre(plane_to_image: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -204,17 +219,9 @@ def fit_mapping(
         residual = float(np.sqrt(np.mean(np.sum((fitted - world[:, :2]) ** 2, axis=1))))
         camera_height = math.nan
         if abs(z_t - ball_height) > 1e-4:
-            plane_to_image = np.linalg.inv(h)
-            k = camera_matrix_for(plane_to_image, image_size, intrinsics.camera_matrix if intrinsics is not None else None,
-                                  fovy_hint)
-            centre = _camera_centre(plane_to_image, k)
-            camera_height = float(centre[2]) - (ball_height - z_t)
-            # Along each ray from the camera: the plane point p_t at z_t maps to the ball plane point
-            # c + s (p_t - c), s = (h_c - dz) / h_c; as a homography acting on plane coordinates:
-            dz = ball_height - z_t
-            s = (centre[2] - dz) / centre[2]
-            shrink = np.array([[s, 0, (1 - s) * centre[0]], [0, s, (1 - s) * centre[1]], [0, 0, 1.0]])
-            h = shrink @ h
+            k = camera_matrix_for(np.linalg.inv(h), image_size,
+                                  intrinsics.camera_matrix if intrinsics is not None else None, fovy_hint)
+            h, camera_height = _to_ball_plane(h, z_t, ball_height, k)
         image_to_table = h
     else:
         if len(common) < 6:
@@ -231,6 +238,83 @@ def fit_mapping(
         camera_height = math.nan
     image_to_table = image_to_table / image_to_table[2, 2]
     return PlaneMapping(image_to_table, np.linalg.inv(image_to_table), residual, len(pixels), camera_height, dropped)
+
+
+def _to_ball_plane(image_to_plane: np.ndarray, plane_height: float, ball_height: float,
+                   camera_matrix: np.ndarray) -> tuple[np.ndarray, float]:
+    """The homography of a plane at plane_height moved along the viewing rays to the ball plane, and the camera's
+    height above the ball plane."""
+    centre = _camera_centre(np.linalg.inv(image_to_plane), camera_matrix)
+    # Along each ray from the camera: the plane point p_t at z_t maps to the ball plane point
+    # c + s (p_t - c), s = (h_c - dz) / h_c; as a homography acting on plane coordinates:
+    dz = ball_height - plane_height
+    s = (centre[2] - dz) / centre[2]
+    shrink = np.array([[s, 0, (1 - s) * centre[0]], [0, s, (1 - s) * centre[1]], [0, 0, 1.0]])
+    return shrink @ image_to_plane, float(centre[2]) - dz
+
+
+def surface_homography(corners: np.ndarray, half_width: float, half_length: float) -> np.ndarray:
+    """Undistorted pixels -> (x, y) on the surface, z = 0, from the field's corners in the order (-x,-y), (+x,-y),
+    (+x,+y), (-x,+y). Four points fix it exactly (nothing to check them against)."""
+    world = np.array([(-half_width, -half_length), (half_width, -half_length), (half_width, half_length),
+                      (-half_width, half_length)], float)
+    # Solved exactly in double precision: cv2.findHomography stops its refinement at about 1e-6 of a pixel's
+    # worth, too coarse for the derivatives corner_refine takes of it.
+    pixels = np.asarray(corners, float).reshape(4, 2)
+    centre, scale = pixels.mean(axis=0), np.abs(pixels - pixels.mean(axis=0)).max() or 1.0
+    normalised = (pixels - centre) / scale
+    rows, values = [], []
+    for (u, v), (x, y) in zip(normalised, world):
+        rows += [[u, v, 1, 0, 0, 0, -x * u, -x * v], [0, 0, 0, u, v, 1, -y * u, -y * v]]
+        values += [x, y]
+    try:
+        h = np.append(np.linalg.solve(np.array(rows), values), 1.0).reshape(3, 3)
+    except np.linalg.LinAlgError:
+        raise FieldCornersError("--field-corners: the corners do not determine a homography (three of them on a line)")
+    if not np.all(np.isfinite(h)):
+        raise FieldCornersError("--field-corners: the corners do not determine a homography (three of them on a line)")
+    return h @ np.array([[1 / scale, 0, -centre[0] / scale], [0, 1 / scale, -centre[1] / scale], [0, 0, 1.0]])
+
+
+def corner_camera_matrix(corners: np.ndarray, half_width: float, half_length: float, image_size: tuple[int, int],
+                         intrinsics: Optional[Intrinsics] = None, fovy_hint: float = 50.0) -> np.ndarray:
+    """The camera matrix for the field's corners (undistorted pixels): the intrinsics given, else the focal
+    length the corners reveal (corner_focal), else the field-of-view hint's."""
+    if intrinsics is not None:
+        return intrinsics.camera_matrix
+    return _camera_matrix(corner_focal(corners, half_width, half_length, image_size), image_size, fovy_hint)
+
+
+def corner_focal(corners: np.ndarray, half_width: float, half_length: float,
+                 image_size: tuple[int, int]) -> Optional[float]:
+    """The focal length (px) the field's corners reveal where a pixel's error in any one of them changes it little,
+    else None. Four corners fix a homography exactly, so their error goes straight into the focal length: seen
+    from straight above, a corner off by 2 px made the 1.9 m overhead camera 7 m high."""
+    corners = np.asarray(corners, float).reshape(4, 2)
+    focal = revealed_focal(np.linalg.inv(surface_homography(corners, half_width, half_length)), image_size)
+    for index in range(8):
+        for step in (-CORNER_PROBE_PX, CORNER_PROBE_PX):
+            if focal is None:
+                return None
+            moved = corners.copy().ravel()
+            moved[index] += step
+            other = revealed_focal(np.linalg.inv(surface_homography(moved, half_width, half_length)), image_size)
+            if other is None or abs(other - focal) > MAX_FOCAL_CHANGE * focal:
+                return None
+    return focal
+
+
+def fit_field_corners(corners: np.ndarray, half_width: float, half_length: float, ball_height: float,
+                      image_size: tuple[int, int], intrinsics: Optional[Intrinsics] = None,
+                      fovy_hint: float = 50.0) -> PlaneMapping:
+    """The pixel <-> ball-plane mapping from the playing field's corners on the surface (z = 0), undistorted
+    pixels in the order (-x,-y), (+x,-y), (+x,+y), (-x,+y): the surface's homography, moved up to the ball plane
+    by the camera it implies (corner_camera_matrix), as for tags off that plane."""
+    h = surface_homography(corners, half_width, half_length)
+    k = corner_camera_matrix(corners, half_width, half_length, image_size, intrinsics, fovy_hint)
+    h, camera_height = _to_ball_plane(h, 0.0, ball_height, k)
+    image_to_table = h / h[2, 2]
+    return PlaneMapping(image_to_table, np.linalg.inv(image_to_table), 0.0, 4, camera_height, {})
 
 
 def _general_position(xy: np.ndarray, min_area: float = 0.005) -> bool:

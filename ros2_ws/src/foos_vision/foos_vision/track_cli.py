@@ -20,8 +20,8 @@ from .camera import load_intrinsics
 from .cli_util import run_cli
 from .detector import BALL_COLOR_NAMES
 from .errors import MarkersError, VisionError
+from .field_corners import FieldCorners, field_reference
 from .figure_mask import FigureGeometry
-from .markers import load_markers
 from .tracker import BallTracker, TrackerConfig, choose_colour
 from .velocity import central_differences
 from .video_io import VideoReader
@@ -33,6 +33,16 @@ Track the ball in a video of the table and write a rosbag2 bag (MCAP) with
 A frame where the ball is not found gives no detection. The tags of the markers file give the
 homography to the table (refitted every --tag-interval frames; the last good fit is kept while tags
 are hidden). Optional outputs: the paper's CSVs and an annotated video or PNG.
+
+A table without tags, filmed by a camera that does not move: --field-corners U1,V1,U2,V2,U3,V3,U4,V4 in
+place of --markers, the pixels where the playing surface meets the walls at the table frame's corners
+(-x,-y), (+x,-y), (+x,+y), (-x,+y) (+y toward the away goal, the home team attacks +y; seen from above the
+four go round counter-clockwise). A corner hidden behind a wall is given where it would be seen; a pixel
+or two off is fine: on the first frame the corners are fitted to the table's edges seen (the felt against
+the walls, the walls' tops), and the run says so. The field's size comes from --params-file (a
+non-regulation table: a parameter file with `base: regulation_table` and `field: {width: ..., length:
+...}`); the ball plane is reached by the parallax the camera implies (--intrinsics when given, else the
+focal length the corners reveal).
 
 Offline, each new track is also followed backward in time from its first detections, over the
 frames just before it, to recover a ball that came out half hidden from under a rod or a foot
@@ -46,6 +56,7 @@ of its colour. Frames more than 0.1 s from any reading are tracked without the m
 
 Examples:
   track_video game.mp4 --markers table_markers.yaml --out game_bag
+  track_video game.mp4 --field-corners 412,880,1510,875,1398,170,520,168 --params-file my_table.yaml --out bag
   track_video game.mp4 --markers m.yaml --out bag --joint-states game_rods_bag --start-time 12.5
   track_video game.mp4 --markers m.yaml --out bag --ball-color yellow --intrinsics cam.yaml \\
       --csv-pixels px.csv --csv-metres m.csv --annotate seen.mp4
@@ -57,7 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="track_video", description=DESCRIPTION,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("video", help="video file (anything OpenCV/FFmpeg decodes: mp4, avi, mkv, ...)")
-    p.add_argument("--markers", required=True, help="markers YAML: ArUco dictionary, tag size, tag centres [x, y, z] in m")
+    p.add_argument("--markers", help="markers YAML: ArUco dictionary, tag size, tag centres [x, y, z] in m")
+    p.add_argument("--field-corners", metavar="U1,V1,U2,V2,U3,V3,U4,V4",
+                   help="instead of --markers: pixels of the playing field's corners at (-x,-y), (+x,-y), (+x,+y), "
+                        "(-x,+y) of the table frame (see above)")
     p.add_argument("--out", required=True, help="bag directory to create (must not exist)")
     p.add_argument("--ball-color", default="auto", choices=("auto",) + BALL_COLOR_NAMES,
                    help="ball colour; auto picks it from the first frames (default auto)")
@@ -73,8 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="forward pass only, as tracker_node tracks live (no backward search before a track's start)")
     p.add_argument("--joint-states", metavar="BAG",
                    help="bag with /joint_states (the 16 rod joints): mask out the figures (see above)")
-    p.add_argument("--params-file", help="foos_sim table parameter file: the figures for the mask, and where the "
-                                         "rods are for --ball-color auto (default: the regulation table)")
+    p.add_argument("--params-file", help="foos_sim table parameter file: the field's size, the figures for the mask, "
+                                         "where the rods are (default: the regulation table)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -90,8 +104,12 @@ def track_video(args: argparse.Namespace) -> int:
             raise VisionError(f"{extra} exists; choose a new output path")
     if args.annotate and Path(args.annotate).suffix.lower() not in (".mp4", ".png"):
         raise VisionError("--annotate takes an .mp4 or .png path")
-    layout = load_markers(args.markers)
+    layout = field_reference(args.markers, args.field_corners)
+    corners = layout if isinstance(layout, FieldCorners) else None
     intrinsics = load_intrinsics(args.intrinsics) if args.intrinsics else None
+    reader = VideoReader(args.video, args.fps)
+    if corners is not None and reader.width > 0 and reader.height > 0:  # else checked on the first frame
+        corners.check_in_image(reader.width, reader.height)
     config = TrackerConfig(ball_color=args.ball_color, intrinsics=intrinsics, tag_interval=args.tag_interval,
                            params_file=args.params_file)
     figures, joints = None, None
@@ -109,7 +127,6 @@ def track_video(args: argparse.Namespace) -> int:
         config.ball_color = choose_colour(frames, layout, config, probe.fps, figures,
                                           lambda t: joints_at(t + args.start_time)) or "auto"
         probe.close()
-    reader = VideoReader(args.video, args.fps)
     if joints is not None and reader.declared_frames and not joints.covers(
             args.start_time, args.start_time + reader.declared_frames / reader.fps):
         raise VisionError(f"--joint-states {args.joint_states}: its stamps ({joints.t[0]:.2f}-{joints.t[-1]:.2f} s) "
@@ -145,7 +162,7 @@ def track_video(args: argparse.Namespace) -> int:
     detections = [r.detection for r in tracked]
     elapsed = time.perf_counter() - started
     stats = tracker.stats
-    if tracker.stats.tag_fits == 0:
+    if corners is None and tracker.stats.tag_fits == 0:
         if stats.tags_seen and not (stats.tags_seen & set(layout.positions)):
             raise MarkersError(f"the video shows tags {sorted(stats.tags_seen)} but the markers file places "
                                f"{layout.ids}: wrong markers file or dictionary")
@@ -153,7 +170,8 @@ def track_video(args: argparse.Namespace) -> int:
             raise MarkersError(f"no usable tag fit in {stats.frames} frames: {tracker.last_fit_error}")
         raise MarkersError(f"no {layout.dictionary} tags found in {stats.frames} frames of {args.video}")
     if not detections:
-        raise VisionError(f"no ball found in {stats.frames} frames (tags were found; try --ball-color)")
+        found = "the field's corners were given" if corners is not None else "tags were found"
+        raise VisionError(f"no ball found in {stats.frames} frames ({found}; try --ball-color)")
     t = np.array([d.t for d in detections])
     xyz = np.array([[d.x, d.y, d.z] for d in detections])
     velocity = np.array([[r.state[2], r.state[3], 0.0] for r in tracked])
@@ -173,7 +191,8 @@ def track_video(args: argparse.Namespace) -> int:
         cv2.polylines(last_frame, [np.round(points).astype(np.int32)], False, (0, 200, 255), 1, cv2.LINE_AA)
         cv2.imwrite(args.annotate, last_frame)
     print(f"track_video: {len(detections)} detections in {stats.frames} frames ({len(detections) / stats.frames:.0%}), "
-          f"{stats.tag_fits} tag fits, colour {tracker.colour.name}, {stats.frames / elapsed:.0f} frames/s -> {args.out}"
+          f"{_fit_summary(tracker, corners)}, colour {tracker.colour.name}, {stats.frames / elapsed:.0f} frames/s "
+          f"-> {args.out}"
           + (f" ({offline.backfilled} found by the backward pass before tracks started)" if offline.backfilled else "")
           + (f"; figure mask in {stats.masked_frames} frames" if joints is not None else ""))
     for tag_id, error in sorted(stats.dropped_tags.items()):
@@ -187,6 +206,16 @@ def track_video(args: argparse.Namespace) -> int:
               f"(corrupt or cut short); the bag holds the frames before", file=sys.stderr)
         return 1
     return 0
+
+
+def _fit_summary(tracker: BallTracker, corners: FieldCorners | None) -> str:
+    if corners is None:
+        return f"{tracker.stats.tag_fits} tag fits"
+    refinement = tracker.view.corner_refinement
+    if refinement is None or refinement.edges_used == 0:
+        return "field corners as given (none of the table's edges found near them)"
+    return (f"field corners fitted to {refinement.edges_used} of the table's edges (moved {refinement.moved_px:.1f} px "
+            f"at most)")
 
 
 def main(argv=None) -> None:

@@ -20,6 +20,7 @@ from .ball_search import NOTHING, BallSearch
 from .camera import Intrinsics
 from .candidate_rules import ACQUIRE_WINDOW, MAX_SPILL, confident, same_ball_reach, solid, weak_too_long
 from .detector import BALL_COLOR_NAMES, BallDetector, Candidate, ColourModel, colour_model, learn_colour
+from .field_corners import FieldReference
 from .field_view import FieldView
 from .figure_mask import FigureGeometry
 from .geometry import Lens, PlaneMapping
@@ -38,7 +39,7 @@ class TrackerConfig:
     ball_color: str = "auto"
     intrinsics: Optional[Intrinsics] = None
     tag_interval: int = 30  # frames between tag refits once the tags are found (the camera is mounted)
-    fovy_hint: float = 50.0  # used only for parallax with tags off the ball plane and no intrinsics
+    fovy_hint: float = 50.0  # used only for parallax (tags off the ball plane, or field corners) and no intrinsics
     auto_frames: int = 24  # frames at least used to pick the colour in auto mode
     learn_after: int = 0  # > 0: confident detections before the colour box is re-centred on the ball seen (off:
     # on renders re-centring lost the ball's rim pixels and doubled the median error)
@@ -71,9 +72,10 @@ class TrackerStats:
 
 
 class BallTracker:
-    def __init__(self, layout: MarkerLayout, config: TrackerConfig | None = None,
+    def __init__(self, layout: FieldReference, config: TrackerConfig | None = None,
                  figures: Optional[FigureGeometry] = None):
-        """figures: the table's figure boxes; with them, process(..., joints) masks out the figures' pixels."""
+        """layout: the markers file's tags, or the field's corners in the image (FieldCorners, a camera that does not
+        move); figures: the table's figure boxes; with them, process(..., joints) masks out the figures' pixels."""
         self.layout = layout
         self.figures = figures
         self.config = config or TrackerConfig()

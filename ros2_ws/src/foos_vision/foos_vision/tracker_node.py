@@ -9,7 +9,14 @@ readings are taken best effort: for the mask the newest reading matters, and a r
 every later reading back while a lost one is sent again (seconds, on a loaded machine). Without joint
 states (or -p figure_mask:=false) it tracks as before, without waiting.
 
+The table is found in the image by the markers file's tags (`markers`, default the shipped layout) or, for a
+table without tags and a camera that does not move, by the pixels of the playing field's corners at (-x,-y),
+(+x,-y), (+x,+y), (-x,+y) of the table frame (`field_corners`: a list of 8 numbers, all integers or all
+decimals, or the string "U1,V1,...,U4,V4"); the field's size is the params_file's. Not both.
+
     ros2 run foos_vision tracker_node --ros-args -p markers:=table_markers.yaml -p ball_color:=yellow
+    ros2 run foos_vision tracker_node --ros-args -p field_corners:=[136,136,136,343,502,343,502,136] \
+        -p params_file:=my_table.yaml
 """
 from __future__ import annotations
 
@@ -19,6 +26,7 @@ import time
 import numpy as np
 from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, JointState
@@ -38,10 +46,11 @@ from foos_core.stamps import stamp_to_seconds
 from .camera import load_intrinsics
 from .cli_util import quiet_threads
 from .errors import VisionError
+from .field_corners import field_reference, option_given
 from .figure_mask import FigureGeometry
 from .image_msg import image_to_bgr
 from .joint_sync import JointSync, ReadyFrame
-from .markers import DEFAULT_MARKERS_FILE, load_markers
+from .markers import DEFAULT_MARKERS_FILE
 from .tracker import BallTracker, TrackerConfig
 
 # Best effort, deep enough for 0.25 s of 400 Hz encoders while a frame is being tracked.
@@ -51,13 +60,18 @@ JOINT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
 class TrackerNode(Node):
     def __init__(self):
         super().__init__("tracker_node")
-        self.declare_parameter("markers", str(DEFAULT_MARKERS_FILE))
+        self.declare_parameter("markers", "")  # '' = the shipped layout, unless field_corners is given
+        # A list of 8 pixel coordinates or the same as one string: a type of its own, hence dynamic.
+        self.declare_parameter("field_corners", "", ParameterDescriptor(dynamic_typing=True))
         self.declare_parameter("ball_color", "auto")
         self.declare_parameter("intrinsics", "")  # calibrate_camera YAML; '' = no undistortion
         self.declare_parameter("tag_interval", 30)
         self.declare_parameter("figure_mask", True)  # mask the figures posed from /joint_states
         self.declare_parameter("params_file", "")  # foos_sim table parameters (figures, rods); '' = nominal
-        markers = load_markers(self.get_parameter("markers").value)
+        markers_file, corners = self.get_parameter("markers").value, self.get_parameter("field_corners").value
+        if not option_given(corners) and not markers_file:
+            markers_file = str(DEFAULT_MARKERS_FILE)
+        layout = field_reference(markers_file, corners, ("markers", "field_corners"))
         intrinsics_file = self.get_parameter("intrinsics").value
         config = TrackerConfig(
             ball_color=self.get_parameter("ball_color").value,
@@ -71,7 +85,7 @@ class TrackerNode(Node):
             figures = FigureGeometry(self.get_parameter("params_file").value or None)
             self.create_subscription(JointState, JOINT_STATES_TOPIC, self.on_joint_states, JOINT_QOS)
             self.create_timer(0.05, self.on_timer)
-        self.tracker = BallTracker(markers, config, figures)
+        self.tracker = BallTracker(layout, config, figures)
         self.warned_joints = False
         self.detection_pub = self.create_publisher(PointStamped, BALL_DETECTION_TOPIC, 50)
         self.state_pub = self.create_publisher(Odometry, BALL_STATE_TOPIC, 50)
