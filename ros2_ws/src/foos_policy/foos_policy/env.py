@@ -4,10 +4,10 @@
     obs, info = env.reset(seed=0)
     obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
 
-Control runs at `control_rate` Hz (50 by default) over the 20 kHz physics. Inside one control step
-the simulation advances in chunks of CHUNK steps (0.25 ms, shorter than a ball-figure contact, which
-lasts about 0.5 ms): the episode ends at the first chunk after which the simulation reports a goal,
-and every rod-ball touch is counted.
+Control runs at `control_rate` Hz (50 by default) over the table's physics (foos_sim's fast physics
+unless the parameter file names the reference): one control step is one TableSimulation.advance(1 /
+control_rate). The episode ends at the control step in which the simulation reports a goal, and every
+rod-ball touch is counted: the simulation counts the touches of each team's figures as they begin.
 """
 from __future__ import annotations
 
@@ -17,13 +17,11 @@ from typing import Any, Optional
 import gymnasium as gym
 import numpy as np
 
-from foos_core.names import COMMAND_SIZE, TEAMS
+from foos_core.names import COMMAND_SIZE
 from foos_sim.simulation import TableSimulation
 
 from .observation import ACTION_LIMIT, OBS_SIZE, action_to_command, observe
 from .tasks import PaperReward, make_opponent, make_reset
-
-CHUNK = 5  # physics steps between goal / touch checks
 
 
 @dataclass
@@ -85,16 +83,13 @@ class FoosballEnv(gym.Env):
         self.reset_task = make_reset(cfg.reset)
         self.opponent = make_opponent(cfg.opponent, self.sim, cfg.opponent_policy)
         self.reward_fn = cfg.reward
-        steps_per_control = self.sim.timestep and round(1.0 / (cfg.control_rate * self.sim.timestep))
-        if steps_per_control < CHUNK:
-            raise ValueError(f"control_rate {cfg.control_rate} Hz is too fast for the {1 / self.sim.timestep:.0f} Hz physics")
-        self.n_chunks = int(round(steps_per_control / CHUNK))
-        self.dt = self.n_chunks * CHUNK * self.sim.timestep
+        if not cfg.control_rate > 0 or 1.0 / cfg.control_rate < self.sim.timestep:
+            raise ValueError(f"control_rate {cfg.control_rate} Hz is not within the {1 / self.sim.timestep:.0f} Hz physics")
+        self.dt = 1.0 / cfg.control_rate
 
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
         self.action_space = gym.spaces.Box(-ACTION_LIMIT, ACTION_LIMIT, (COMMAND_SIZE,), np.float32)
 
-        self._touching = dict.fromkeys(TEAMS, False)  # whether the ball touched the team's figures after the last chunk
         self.stats = EpisodeStats()
         self._stagnant_count = 0
 
@@ -106,7 +101,6 @@ class FoosballEnv(gym.Env):
         self.sim.reset(ball_position=position, ball_velocity=velocity,
                        joint_positions=initial_joints() if initial_joints else None)
         self.stats = EpisodeStats(final_y=float(position[1]))
-        self._touching = dict.fromkeys(TEAMS, False)
         self._stagnant_count = 0
         return self._observe("home"), {}
 
@@ -149,24 +143,16 @@ class FoosballEnv(gym.Env):
         return observe(team, sim.ball_position(), sim.ball_velocity(), sim.joint_positions(), sim.joint_velocities())
 
     def _advance(self) -> Optional[str]:
-        """One control step of chunks; the team that scored (the episode ends there), or None."""
-        for _ in range(self.n_chunks):
-            goal = self.sim.step(CHUNK)
-            for team, touching in zip(TEAMS, self.sim.figure_contacts()):
-                self._register_touch(team, touching)
-            if goal is not None:
-                return goal
-        return None
-
-    def _register_touch(self, team: str, touching: bool) -> None:
-        """Counts a touch when the ball begins touching a team's figures."""
-        if touching and not self._touching[team]:
-            if team == "home":
-                self.stats.touches_home += 1
-                self.stats.last_home_touch_y = float(self.sim.ball_position()[1])
-            else:
-                self.stats.touches_away += 1
-        self._touching[team] = touching
+        """One control step of physics; the team that scored (the episode ends there), or None. The touches
+        that began in it are counted, and where the ball was at the last home touch."""
+        home_before, away_before = self.sim.figure_touches()
+        goal = self.sim.advance(self.dt)
+        home, away = self.sim.figure_touches()
+        self.stats.touches_home += home - home_before
+        self.stats.touches_away += away - away_before
+        if home > home_before:
+            self.stats.last_home_touch_y = float(self.sim.last_touch_ball_position("home")[1])
+        return goal
 
 
 def make_env(reset: str = "paper", opponent: str = "none", opponent_policy: Optional[str] = None, **overrides) -> FoosballEnv:

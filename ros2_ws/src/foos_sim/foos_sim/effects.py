@@ -9,7 +9,8 @@ the real cause would, never by a correction added on top of the simulation:
 | rolling_resistance   | the ball-field rolling friction                                            |
 | viscous_damping      | the fluid model's viscosity (Stokes drag on the ball's ellipsoid model)    |
 | air_drag             | the fluid model's density (blunt quadratic drag; lift and buoyancy offset) |
-| surface_dent         | a height field in place of the flat field geom                             |
+| surface_dent         | a height field in place of the flat field geom (reference physics); on the |
+|                      | fast physics the dent's slope pushes the ball (DentSlopes)                 |
 | wall_restitution     | the ball-wall contacts' damping (all walls, or the named one)              |
 
 The contract defines each parameter by what is observed on a rolling ball (a deceleration), so the
@@ -157,3 +158,33 @@ def resolve(params: dict) -> Physics:
         physics.air_density = density_for_drag(
             drag_coefficient, float(ball["radius"]), float(ball["mass"]), BLUNT_DRAG, physics.rolling_deceleration, g)
     return physics
+
+
+class DentSlopes:
+    """The dents on the fast physics: the force of each dent's slope on a ball on the field, -m g grad h.
+
+    A ball rolling over a surface z = h(x, y) of small slope moves as on the flat field pushed by that
+    force at its centre (the rolling constraint makes it 5/7 g s, as a tilt does). Off the field (higher
+    than DentSlopes.ON_FIELD above it) the ball feels none."""
+
+    ON_FIELD = 0.001  # m of the ball's bottom above the field
+
+    def __init__(self, dents: list[Dent], ball_mass: float, gravity: float, ball_radius: float):
+        self.dents = list(dents)
+        self.weight = ball_mass * gravity
+        self.ball_radius = ball_radius
+
+    def force(self, x: float, y: float, z: float) -> tuple[float, float]:
+        if z - self.ball_radius > self.ON_FIELD:
+            return 0.0, 0.0
+        slope_x = slope_y = 0.0
+        for dent in self.dents:
+            dx, dy = x - dent.x, y - dent.y
+            d = math.hypot(dx, dy)
+            if 0.0 < d < dent.radius:
+                # h = -depth (1 + cos(pi d / R)) / 2, so dh/dd = depth pi / (2 R) sin(pi d / R).
+                slope = 0.5 * dent.depth * math.pi / dent.radius * math.sin(math.pi * d / dent.radius)
+                slope_x += slope * dx / d
+                slope_y += slope * dy / d
+        return -self.weight * slope_x, -self.weight * slope_y
+

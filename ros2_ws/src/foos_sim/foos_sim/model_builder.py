@@ -3,6 +3,13 @@
 Every ball contact is an explicit <pair>, so each has exactly the friction, condim and spring the
 parameter file asks for; nothing else in the model collides (rods are driven, figures of different
 rods pass each other as on a real table, and the ball is the only free body).
+
+Two physics, chosen by `solver.physics` in the parameter file (PHYSICS):
+- `reference`: the ball's wall and figure contacts are linear springs whose damping gives the
+  restitution, at 20 kHz (`solver.timestep`). Its mj_step alone is the table's whole physics.
+- `fast`: `solver.fast.timestep` (0.5-2 ms); the wall and figure contacts are stiff and nearly
+  inelastic, with a gap that sees impacts one step ahead, and foos_sim.impacts resolves each impact
+  exactly (TableSimulation runs it). Stepped by mj_step alone, its walls and figures would not bounce.
 """
 from __future__ import annotations
 
@@ -14,15 +21,59 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from foos_core.names import AXES, BALL_BODY, BALL_JOINT, FIELD_GEOM, JOINT_NAMES, RODS, TEAMS, joint_name
+from foos_core.names import (
+    AXES,
+    BALL_BODY,
+    BALL_JOINT,
+    FIELD_GEOM,
+    JOINT_NAMES,
+    RODS,
+    TEAMS,
+    figure_team,
+    joint_name,
+)
 from foos_core.table_params import load_params
 
 from . import effects as effects_mod
+from .impacts import ImpactSurface
 
 # Solver impedance held constant over penetration, so each ball contact is a linear spring-damper and
 # its restitution does not depend on impact speed.
 BALL_SOLIMP = "0.99 0.99 0.001 0.5 2"
+# The fast physics' contacts hold harder once pressed in: a figure pressing the ball into the field or a
+# wall (up to 130 N) sinks it by (1 - d) / d times its push over the contact's stiffness.
+FAST_BALL_SOLIMP = "0.999 0.9999 0.001 0.5 2"
 HFIELD_CELL = 0.004  # m, height-field resolution of a dented surface
+PHYSICS = ("fast", "reference")
+DEFAULT_PHYSICS = "reference"  # of a parameter file that names none (files written before the fast physics)
+# Initial look-ahead gap of the fast model's impact pairs; TableSimulation sets it from the ball's speed.
+INITIAL_IMPACT_GAP = 0.02
+# m/s: a ball landing slower than this settles in the field contact (a resting ball gains g h per step).
+FIELD_MIN_IMPACT_SPEED = 0.1
+
+
+class PhysicsError(ValueError):
+    """A parameter file whose `solver.physics` (or fast settings) cannot be run."""
+
+
+def physics_name(params: dict, override: str | None = None) -> str:
+    """Which physics a table runs: `override` when given, else the parameter file's `solver.physics`."""
+    name = override if override is not None else params["solver"].get("physics", DEFAULT_PHYSICS)
+    if name not in PHYSICS:
+        raise PhysicsError(f"solver.physics must be one of {', '.join(PHYSICS)}, got {name!r}")
+    if name == "fast":
+        fast = params["solver"].get("fast")
+        if not isinstance(fast, dict) or not isinstance(fast.get("timestep"), (int, float)) or not fast["timestep"] > 0:
+            raise PhysicsError("the fast physics needs solver.fast.timestep, a positive number of seconds")
+    return name
+
+
+def solver_settings(params: dict, physics: str) -> dict:
+    """The solver options of one physics: `solver`, with `solver.fast` on top for the fast one."""
+    solver = {k: v for k, v in params["solver"].items() if k not in ("physics", "fast")}
+    if physics == "fast":
+        solver.update(params["solver"]["fast"])
+    return solver
 
 
 def damping_ratio_for_restitution(restitution: float) -> float:
@@ -109,23 +160,70 @@ def _sub(parent: ET.Element, tag: str, **attributes) -> ET.Element:
 class TableModelBuilder:
     """Builds the MJCF of one table from its parameter tree."""
 
-    def __init__(self, params: dict, ball_only: bool = False):
+    def __init__(self, params: dict, ball_only: bool = False, physics: str | None = None):
         self.params = params
-        # ball_only: the same table without rods and figures, for fast rollouts of a free ball
+        # ball_only: the same table without rods and figures, for fast rollouts of a free ball. Its users
+        # step it with mj_step or mujoco.rollout alone, so it is the reference physics unless asked.
         self.ball_only = ball_only
+        self.physics_name = physics_name(params, physics if physics is not None or not ball_only else "reference")
         self.physics = effects_mod.resolve(params)
         self.frequency = float(params["contact"]["natural_frequency"])
-        self.timestep = float(params["solver"]["timestep"])
+        self.solver = solver_settings(params, self.physics_name)
+        self.timestep = float(self.solver["timestep"])
         self.ball_contact_geoms: list[tuple[str, str]] = []  # (geom, kind) pairs with the ball
+        self.impact_surfaces: dict[str, ImpactSurface] = {}  # the fast physics' walls and figures, after build()
+
+    @property
+    def fast(self) -> bool:
+        return self.physics_name == "fast"
+
+    @property
+    def dented_field(self) -> bool:
+        """Whether the field is a height field with the dents. The fast physics keeps it flat and pushes
+        the ball down the dents' slopes instead (foos_sim.effects.DentSlopes): a height field's cell edges
+        cost a ball rolling across at 2 ms steps speed the reference keeps (10 mm behind it after 0.6 s
+        across a 2 mm dent, against 1 mm that the dent itself changes)."""
+        return bool(self.physics.dents) and not self.fast
+
+    @property
+    def solimp(self) -> str:
+        return FAST_BALL_SOLIMP if self.fast else BALL_SOLIMP
 
     def solref(self, restitution: float | None = None, damping_ratio: float | None = None) -> str:
+        if self.fast:
+            # Stiff and nearly inelastic (MuJoCo's stiffest stable contact, time constant 2 steps): a bounce
+            # comes from foos_sim.impacts, the contact only holds what rests or pushes.
+            return _fmt(2.0 * self.timestep, 1.0)
         if damping_ratio is None:
             damping_ratio = discrete_damping_ratio(float(restitution), self.frequency, self.timestep)
         return _fmt(-self.frequency**2, -2.0 * damping_ratio * self.frequency)
 
+    def field_solref(self) -> str:
+        if self.fast:
+            return _fmt(2.0 * self.timestep, self.params["contact"]["field_damping_ratio"])
+        return self.solref(damping_ratio=self.params["contact"]["field_damping_ratio"])
+
+    def friction_share(self, restitution: float) -> float:
+        """The share of the slip the reference's friction stops in one impact: its friction acts through the
+        spring's damping (2 zeta omega) for the contact's half period (pi / omega)."""
+        zeta = discrete_damping_ratio(float(restitution), self.frequency, float(self.params["solver"]["timestep"]))
+        return 1.0 - math.exp(-2.0 * math.pi * zeta)
+
+    def reference_contact_duration(self) -> float:
+        """s, how long a ball contact lasts on the reference: half a period of its spring."""
+        return math.pi / self.frequency
+
+    def figure_speed_limit(self) -> float:
+        """m/s, the fastest a figure's surface moves: full slide and rotation speed at the farthest point."""
+        p = self.params
+        fig, rods = p["figure"], p["rods"]
+        foot_y = fig["foot_size"][1]
+        reach = max(math.hypot(rods["axis_height"] - fig["foot_clearance"], foot_y / 2), fig["head_height"])
+        return math.hypot(drive_speed_limit(p, "slide"), drive_speed_limit(p, "rotate") * reach)
+
     def build(self) -> str:
         p = self.params
-        solver = p["solver"]
+        solver = self.solver
         root = ET.Element("mujoco", model="foosball_table")
         _sub(root, "compiler", angle="radian", autolimits="true")
         option = _sub(
@@ -165,7 +263,7 @@ class TableModelBuilder:
         _sub(asset, "material", name="away", rgba="0.10 0.20 0.80 1")
         _sub(asset, "material", name="rod", rgba="0.75 0.75 0.78 1")
         _sub(asset, "material", name="ball", rgba="0.95 0.95 0.92 1")
-        if self.physics.dents:
+        if self.dented_field:
             self._dented_field_asset(asset)
 
     def _dented_field_asset(self, asset: ET.Element) -> None:
@@ -193,7 +291,7 @@ class TableModelBuilder:
     def _field(self, world: ET.Element) -> None:
         f = self.params["field"]
         half_x, half_y, t = f["width"] / 2, f["length"] / 2, f["thickness"]
-        if self.physics.dents:
+        if self.dented_field:
             # The height field's zero elevation sits at its geom origin; lift it so that undisturbed
             # surface stays at z = 0.
             _sub(world, "geom", name=FIELD_GEOM, type="hfield", hfield="field", pos=_fmt(0, 0, self._hfield_offset),
@@ -295,34 +393,66 @@ class TableModelBuilder:
         contact = _sub(root, "contact")
         for geom, kind in self.ball_contact_geoms:
             if kind == "field":
-                _sub(contact, "pair", geom1="ball", geom2=geom, condim=6,
-                     friction=_fmt(b["sliding_friction"], b["sliding_friction"], b["spin_friction"], rolling_friction, rolling_friction),
-                     solref=self.solref(damping_ratio=p["contact"]["field_damping_ratio"]), solimp=BALL_SOLIMP)
-            elif kind == "wall":
-                e = self.physics.wall_restitution.get(geom, self.physics.wall_restitution.get("*", p["walls"]["restitution"]))
-                _sub(contact, "pair", geom1="ball", geom2=geom, condim=3,
-                     friction=_fmt(p["walls"]["friction"], p["walls"]["friction"], 0, 0, 0),
-                     solref=self.solref(restitution=e), solimp=BALL_SOLIMP)
+                mu = b["sliding_friction"]
+                pair = _sub(contact, "pair", geom1="ball", geom2=geom, condim=6,
+                            friction=_fmt(mu, mu, b["spin_friction"], rolling_friction, rolling_friction),
+                            solref=self.field_solref(), solimp=self.solimp)
+                if self.fast:
+                    # A stiff normal with stiff friction lifts a sliding ball: MuJoCo's soft friction cone
+                    # trades normal force for friction (a ball launched sliding at 2 m/s hopped 11 mm, 3.8 mm
+                    # on the reference). A softer friction reference lifts it less (1.7 mm at 0.01 s), and the
+                    # slip still ends when it should (5/7 of the speed after 0.19 s at 2 m/s, within 0.3 %).
+                    pair.set("solreffriction", _fmt(float(self.solver["field_friction_timeconst"]), 1.0))
+                    # A landing (or a ball a figure presses down) stops dead, as on the reference's critically
+                    # damped field. Without a gap: the floor is under the ball anyway, and a dented field's
+                    # height field reported its 50 contacts from the cells within the gap, not those holding
+                    # the ball (it fell through).
+                    self.impact_surfaces[geom] = ImpactSurface(0.0, float(mu), -1, FIELD_MIN_IMPACT_SPEED, floor=True)
             else:
-                _sub(contact, "pair", geom1="ball", geom2=geom, condim=3,
-                     friction=_fmt(p["figures"]["friction"], p["figures"]["friction"], 0, 0, 0),
-                     solref=self.solref(restitution=p["figures"]["restitution"]), solimp=BALL_SOLIMP)
+                if kind == "wall":
+                    e = self.physics.wall_restitution.get(geom, self.physics.wall_restitution.get("*", p["walls"]["restitution"]))
+                    mu, team = float(p["walls"]["friction"]), -1
+                else:
+                    e, mu = float(p["figures"]["restitution"]), float(p["figures"]["friction"])
+                    team = TEAMS.index(figure_team(geom))
+                pair = _sub(contact, "pair", geom1="ball", geom2=geom, condim=3, friction=_fmt(mu, mu, 0, 0, 0),
+                            solref=self.solref(restitution=e), solimp=self.solimp)
+                if self.fast:
+                    self._see_impacts_coming(pair, geom, ImpactSurface(float(e), mu, team, friction_share=self.friction_share(e)))
+
+    def _see_impacts_coming(self, pair: ET.Element, geom: str, surface: ImpactSurface) -> None:
+        # MuJoCo 4 reports a contact up to margin + gap apart and pushes only within the margin: with a
+        # margin of 0 the impact solver sees contacts coming within the gap.
+        pair.set("margin", "0")
+        pair.set("gap", _fmt(INITIAL_IMPACT_GAP))
+        self.impact_surfaces[geom] = surface
 
 
-def build_mjcf(params_file: str | Path | None = None, params: dict | None = None) -> str:
-    """The MJCF text of a table, from a parameter file (nominal table when None) or a parameter tree."""
-    return TableModelBuilder(params if params is not None else load_params(params_file)).build()
+def build_mjcf(params_file: str | Path | None = None, params: dict | None = None, physics: str | None = None) -> str:
+    """The MJCF text of a table, from a parameter file (nominal table when None) or a parameter tree, with
+    the physics the parameters name (or `physics`). Both have the same bodies, joints, geoms and qpos."""
+    return TableModelBuilder(params if params is not None else load_params(params_file), physics=physics).build()
 
 
-def load_model(params_file: str | Path | None = None) -> mujoco.MjModel:
-    """The nominal table (or the one a calibrated parameter file describes) as a MuJoCo model."""
-    return model_from_params(load_params(params_file))
+def load_model(params_file: str | Path | None = None, physics: str = "reference") -> mujoco.MjModel:
+    """The nominal table (or the one a calibrated parameter file describes) as a MuJoCo model.
+
+    The reference physics by default: its mj_step alone is the whole physics, bounces included, as a
+    user stepping the bare model expects. TableSimulation runs the physics the parameter file names.
+    """
+    return model_from_params(load_params(params_file), physics)
 
 
-def model_from_params(params: dict) -> mujoco.MjModel:
-    model = mujoco.MjModel.from_xml_string(build_mjcf(params=params))
+def model_from_params(params: dict, physics: str | None = None) -> mujoco.MjModel:
+    return build_model(params, physics)[0]
+
+
+def build_model(params: dict, physics: str | None = None) -> tuple[mujoco.MjModel, TableModelBuilder]:
+    """The table's model and the builder that made it (its physics name, solver, impact surfaces)."""
+    builder = TableModelBuilder(params, physics=physics)
+    model = mujoco.MjModel.from_xml_string(builder.build())
     _check_actuator_order(model)
-    return model
+    return model, builder
 
 
 def ball_model_from_params(params: dict) -> mujoco.MjModel:

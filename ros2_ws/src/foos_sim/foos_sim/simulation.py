@@ -1,33 +1,51 @@
-"""The ROS-free simulation API shared by sim_node, the RL env and calibration.
+"""The ROS-free simulation API shared by sim_node, the RL env and record_sim.
 
-    sim = TableSimulation()                       # nominal table
+    sim = TableSimulation()                       # nominal table, the physics its parameter file names
     sim.reset(ball_position=(0.0, -0.2), ball_velocity=(0.3, 2.0))
     sim.set_command("home", [0, 0, 0, 0, 0, 20.0, 0, 0])
-    goal = sim.step(100)                          # 100 physics steps; "home", "away" or None
+    goal = sim.advance(0.02)                      # 20 ms of physics, impacts included; "home", "away" or None
     x, y, z = sim.ball_position()
 
 Commands follow the contract: per team 8 target joint velocities in the table frame
 [goalie_slide, goalie_rotate, defence_slide, ..., attack_rotate], clipped to the drives' limits.
+
+Two physics (foos_sim.model_builder.PHYSICS, `solver.physics` in the parameter file, or the `physics`
+argument): `fast` (the default, 500 Hz, impacts resolved by foos_sim.impacts between MuJoCo's collision
+and its forces) and `reference` (the 20 kHz springs, stepped by mj_step alone).
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional, Sequence
 
 import mujoco
 import numpy as np
 
-from foos_core.names import BALL_JOINT, COMMAND_SIZE, JOINT_NAMES, TEAMS, figure_team, team_joint_names
+from foos_core.names import (
+    BALL_BODY,
+    BALL_JOINT,
+    COMMAND_SIZE,
+    JOINT_NAMES,
+    TEAMS,
+    figure_team,
+    team_joint_names,
+)
 from foos_core.table_params import load_params
 
-from .model_builder import model_from_params
+from .drives import ImplicitForceLimits
+from .effects import DentSlopes
+from .impacts import ImpactSolver
+from .model_builder import build_model
 
 HOME_SCORES = "home"  # ball centre crosses y = +half_length inside the away goal mouth
 AWAY_SCORES = "away"
 
-# Goals are checked at least this often (5 ms at 20 kHz): a 10 m/s shot spends about 16 ms in a pocket
-# before it could bounce back out, so no goal is missed between checks.
-GOAL_CHECK_STEPS = 100
+# The reference physics is stepped in MuJoCo in chunks of this many steps (0.25 ms at 20 kHz, shorter than
+# a ball-figure contact, which lasts about 0.5 ms); goals and figure touches are checked after each.
+REFERENCE_CHUNK_STEPS = 5
+# A figure's surface may move a little faster than its drives' limits (servo overshoot, a rod's recoil).
+FIGURE_SPEED_MARGIN = 1.2
 
 
 class CommandError(ValueError):
@@ -37,10 +55,24 @@ class CommandError(ValueError):
 class TableSimulation:
     """One table: a MuJoCo model and data with the contract's joints, commands and goal rules."""
 
-    def __init__(self, params_file: str | Path | None = None, params: dict | None = None):
+    def __init__(self, params_file: str | Path | None = None, params: dict | None = None, physics: str | None = None):
         self.params = params if params is not None else load_params(params_file)
-        self.model = model_from_params(self.params)
+        self.model, builder = build_model(self.params, physics)
+        self.physics = builder.physics_name
         self.data = mujoco.MjData(self.model)
+        self._impacts = (
+            ImpactSolver(self.model, builder.impact_surfaces, FIGURE_SPEED_MARGIN * builder.figure_speed_limit(),
+                         builder.reference_contact_duration(),
+                         (self.params["field"]["width"] / 2, self.params["field"]["length"] / 2),
+                         float(self.params["field"]["cover_height"]))
+            if builder.fast else None
+        )
+        self._drives = ImplicitForceLimits(self.model, self.data) if builder.fast else None
+        self._dent_slopes = (
+            DentSlopes(builder.physics.dents, float(self.params["ball"]["mass"]), float(self.params["gravity"]),
+                       float(self.params["ball"]["radius"]))
+            if builder.fast and builder.physics.dents else None
+        )
         field = self.params["field"]
         self.half_length = field["length"] / 2
         self.half_width = field["width"] / 2
@@ -48,6 +80,7 @@ class TableSimulation:
         self.ball_radius = float(self.params["ball"]["radius"])
         self.timestep = float(self.model.opt.timestep)
 
+        self._ball_body = self.model.body(BALL_BODY).id
         ball_joint = self.model.joint(BALL_JOINT)
         self._ball_qpos = slice(ball_joint.qposadr[0], ball_joint.qposadr[0] + 7)
         self._ball_qvel = slice(ball_joint.dofadr[0], ball_joint.dofadr[0] + 6)
@@ -92,18 +125,24 @@ class TableSimulation:
         return self.data.qvel[self._joint_qvel].copy()
 
     def joint_efforts(self) -> np.ndarray:
-        return self.data.actuator_force[np.concatenate([self._team_ctrl[t] for t in TEAMS])].copy()
+        forces = self._drives.efforts(self.data) if self._drives is not None else self.data.actuator_force
+        return forces[np.concatenate([self._team_ctrl[t] for t in TEAMS])].copy()
 
     def figure_contacts(self) -> tuple[bool, bool]:
-        """Whether the ball touches a home figure and an away figure now (TEAMS order), from the
-        contacts of the last step. Every contact of the model is one of the ball's pairs, so a contact
-        with a figure geom is the ball touching that figure."""
-        ncon = self.data.ncon
-        if ncon == 0:
-            return False, False
-        geoms = self.data.contact.geom[:ncon]
-        home, away = (bool(figures[geoms].any()) for figures in self._team_figure_geoms)
-        return home, away
+        """Whether the ball touched a home figure and an away figure (TEAMS order) during the last
+        advance() or step(): an impact, or a contact such as a push. (False, False) after a reset."""
+        return self._touched_in_call[0], self._touched_in_call[1]
+
+    def figure_touches(self) -> tuple[int, int]:
+        """How many touches each team's figures (TEAMS order) have made since reset(): a touch begins when
+        the ball starts touching one of the team's figures (checked every step at the fast rate, every
+        0.25 ms on the reference)."""
+        return self._touch_count[0], self._touch_count[1]
+
+    def last_touch_ball_position(self, team: str) -> Optional[np.ndarray]:
+        """Where the ball was when `team`'s figures last began touching it since reset(), or None."""
+        position = self._touch_position[TEAMS.index(team)]
+        return None if position is None else position.copy()
 
     def state_is_finite(self) -> bool:
         """False once the physics has diverged (a NaN or infinite position anywhere in the model)."""
@@ -115,7 +154,7 @@ class TableSimulation:
         values = np.asarray(command, dtype=float).ravel()
         if values.size != COMMAND_SIZE:
             raise CommandError(f"a rod command has {COMMAND_SIZE} values, got {values.size}")
-        if not np.all(np.isfinite(values)):
+        if not np.isfinite(values).all():
             raise CommandError("a rod command must not contain NaN or infinite values")
         return values
 
@@ -123,12 +162,16 @@ class TableSimulation:
         """Set one team's 8 target joint velocities; returns them clipped to the drive limits."""
         if team not in self._team_ctrl:
             raise CommandError(f"unknown team `{team}` (expected one of {TEAMS})")
-        clipped = np.clip(self.validate_command(command), -self.command_limits, self.command_limits)
+        clipped = self.validate_command(command).clip(-self.command_limits, self.command_limits)
         self.data.ctrl[self._team_ctrl[team]] = clipped
+        if self._drives is not None:
+            self._drives.disturb()
         return clipped
 
     def stop_team(self, team: str) -> None:
         self.data.ctrl[self._team_ctrl[team]] = 0.0
+        if self._drives is not None:
+            self._drives.disturb()
 
     def place_ball(self, position: Sequence[float], velocity: Sequence[float] = (0.0, 0.0), rolling: bool = True) -> None:
         """Put the ball somewhere with a velocity (a hand launch), leaving the rods as they are."""
@@ -141,23 +184,88 @@ class TableSimulation:
         # Identity orientation: the body frame is the table frame, so this spin is in table axes.
         qvel[3:] = (-velocity[1] / self.ball_radius, velocity[0] / self.ball_radius, 0.0) if rolling else 0.0
         self._goal = None
+        if self._drives is not None:
+            self._drives.disturb()
         mujoco.mj_forward(self.model, self.data)
 
     # --- stepping ------------------------------------------------------------------------------
-    def step(self, n: int = 1) -> Optional[str]:
-        """Advance n physics steps; returns the team that has scored since the last reset, or None.
+    def advance(self, seconds: float) -> Optional[str]:
+        """Run `seconds` of physics, impacts included; returns the team that has scored since the last
+        reset() or place_ball(), or None.
 
-        A goal is latched: once the ball centre has crossed an end line inside the mouth, the goal
-        stands until reset(), even if the ball bounces back out of the pocket.
+        Time moves in whole physics steps; what a call asks beyond them is carried to the next call, so
+        over many calls `time` follows the sum asked within half a step. A goal is latched: once the
+        ball centre has crossed an end line inside the mouth, the goal stands until reset() or
+        place_ball(), even if the ball bounces back out of the pocket.
         """
-        remaining = int(n)
+        seconds = float(seconds)
+        if not (math.isfinite(seconds) and seconds >= 0.0):
+            raise ValueError(f"advance() takes a finite number of seconds >= 0, got {seconds}")
+        self._time_owed += seconds
+        steps = math.floor(self._time_owed / self.timestep + 0.5)
+        self._time_owed -= steps * self.timestep
+        return self.step(steps)
+
+    def step(self, n: int = 1) -> Optional[str]:
+        """Advance n physics steps of this simulation's own rate (`timestep`), impacts included; returns
+        what advance() returns. advance(seconds) is the same without knowing the rate."""
+        self._touched_in_call = [False, False]
+        n = int(n)
+        if n <= 0:
+            return self.goal()
+        if self._impacts is not None:
+            self._fast_steps(n)
+        else:
+            self._reference_steps(n)
+        return self._goal
+
+    def _reference_steps(self, n: int) -> None:
+        model, data = self.model, self.data
+        remaining = n
         while remaining > 0:
-            chunk = min(remaining, GOAL_CHECK_STEPS)
-            mujoco.mj_step(self.model, self.data, nstep=chunk)
+            chunk = min(remaining, REFERENCE_CHUNK_STEPS)
+            mujoco.mj_step(model, data, nstep=chunk)
             remaining -= chunk
+            ncon = data.ncon
+            if ncon:
+                # Every contact of the model is one of the ball's pairs: one with a figure geom is a touch.
+                geoms = data.contact.geom[:ncon]
+                self._note_touches([bool(figures[geoms].any()) for figures in self._team_figure_geoms])
+            else:
+                self._note_touches([False, False])
             if self._goal is None:
                 self._goal = self._goal_now()
-        return self._goal
+
+    def _fast_steps(self, n: int) -> None:
+        model, data, impacts, drives, dents = self.model, self.data, self._impacts, self._drives, self._dent_slopes
+        step1, step2, ball = mujoco.mj_step1, mujoco.mj_step2, self._ball_qpos
+        impacts.update_gaps(data)  # the state may have been set since the last step (reset, place_ball)
+        for i in range(n):
+            drives.update()
+            if dents is not None:
+                data.xfrc_applied[self._ball_body, :2] = dents.force(*data.qpos[ball][:3].tolist())
+            step1(model, data)
+            if impacts.resolve(data):
+                step1(model, data)  # positions and velocities changed: collide and evaluate again
+                drives.disturb()  # a rod may have been jolted
+            step2(model, data)
+            impacts.after_step(data)
+            touching = impacts.touching
+            if touching[0] or touching[1] or self._touching[0] or self._touching[1]:
+                self._note_touches(touching)
+                drives.disturb()  # a figure held by the ball: its drive may be past its limit
+            # Every other step (4 ms; a shot into a goal spends 16 ms in the pocket before it could come out).
+            if self._goal is None and (i & 1 or i == n - 1):
+                self._goal = self._goal_now()
+
+    def _note_touches(self, touching: Sequence[bool]) -> None:
+        for team in (0, 1):
+            if touching[team]:
+                if not self._touching[team]:
+                    self._touch_count[team] += 1
+                    self._touch_position[team] = self.data.qpos[self._ball_qpos][:3].copy()
+                self._touched_in_call[team] = True
+            self._touching[team] = touching[team]
 
     def goal(self) -> Optional[str]:
         """The team that has scored since the last reset ("home" attacks +y), or None."""
@@ -166,7 +274,8 @@ class TableSimulation:
         return self._goal
 
     def _goal_now(self) -> Optional[str]:
-        x, y = self.data.qpos[self._ball_qpos][:2]
+        adr = self._ball_qpos.start
+        x, y = self.data.qpos[adr:adr + 2].tolist()
         if abs(x) > self.goal_half_width:
             return None
         if y > self.half_length:
@@ -205,6 +314,11 @@ class TableSimulation:
         """
         _ball_vectors(ball_position, ball_velocity, self.ball_radius)  # refuse bad input before resetting
         mujoco.mj_resetData(self.model, self.data)
+        self._time_owed = 0.0
+        self._touching = [False, False]  # touching each team's figures at the last check
+        self._touched_in_call = [False, False]
+        self._touch_count = [0, 0]
+        self._touch_position: list[Optional[np.ndarray]] = [None, None]
         if joint_positions is not None:
             values = np.asarray(joint_positions, dtype=float)
             if values.shape != (len(JOINT_NAMES),) or not np.all(np.isfinite(values)):
