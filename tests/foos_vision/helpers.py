@@ -6,25 +6,9 @@ import signal
 import subprocess
 from pathlib import Path
 
+from ..user_env import workspace_env
+
 ROOT = Path(__file__).resolve().parents[2]
-_ENV: dict[str, str] | None = None
-
-
-def workspace_env(domain: int | None = None) -> dict[str, str]:
-    """The environment a shell gets from `source scripts/env.sh` (computed once)."""
-    global _ENV
-    if _ENV is None:
-        out = subprocess.run(["bash", "-c", f"source {ROOT}/scripts/env.sh >/dev/null && env -0"],
-                             check=True, capture_output=True, cwd=ROOT).stdout.decode()
-        _ENV = dict(item.split("=", 1) for item in out.split("\0") if "=" in item)
-        _ENV["PYTHONUNBUFFERED"] = "1"
-        _ENV["OMP_NUM_THREADS"] = "1"
-    env = dict(_ENV)
-    if domain is not None:
-        env["ROS_DOMAIN_ID"] = str(domain)
-    return env
-
-
 def ros2_run(executable: str, *args: str, timeout: float = 120, cwd: Path | None = None) -> subprocess.CompletedProcess:
     return subprocess.run(["ros2", "run", "foos_vision", executable, *args], capture_output=True, text=True,
                           env=workspace_env(), timeout=timeout, cwd=cwd or ROOT)
