@@ -11,7 +11,9 @@ Modules, one concern each. The tracker (ROS-free), along a frame's path:
   figure_mask, rod_lines the figures' and the rods' image from the foos_sim model and the camera
   detector               colour models and ball-sized blobs (candidates) with sub-pixel centres
   candidate_rules        whether a blob is the ball: shape, figures over or joined to their rods, fixtures
-  ball_search            the searches: near the track, elsewhere, the whole field, runs of partial balls
+  ball_search            the searches: near the track, elsewhere, the whole field, runs of partial balls,
+                         and streaks
+  streaks                a motion-blurred ball: the shares of its colour per pixel, a moving disc fitted
   ball_colour            the `auto` colour vote and the colour learnt from the ball seen
   tracker                BallTracker: the track's state, frame by frame; choose_colour
   velocity, backfill     Kalman filter and central differences; the offline backward pass
@@ -20,5 +22,5 @@ Modules, one concern each. The tracker (ROS-free), along a frame's path:
 Around it: bag_inputs (what the commands read from bags), image_msg (sensor_msgs/Image to BGR), video_io,
 camera (camera configs and intrinsics), annotate; the commands track_cli, render_cli, calibrate_camera,
 bench, and the nodes tracker_node and video_source; the synthetic camera: scene, render, scenarios, hands,
-boards.
+boards, and shots (a bag of shots at 3-8 m/s to film).
 """

@@ -110,11 +110,14 @@ class OfflineTracker:
             # figure of its colour there would pass for a half-hidden ball.
             tr.set_figures(joints)
             candidate, _, _ = tr.search.near(frame, state, 0.0, 0)
+            if candidate is None or not solid(candidate):
+                # A shot's streak, as the forward tracker finds one (the filter's previous state is a later frame's).
+                candidate = tr.search.streak(frame, state, kalman.state)[0] or candidate
             # Hollow (a figure's outline) or merged with something of its colour (its centre pulled off): not
             # a ball to start a track's history with.
             if candidate is None or candidate.fill < MIN_PARTIAL_FILL or candidate.spill > MAX_SPILL:
                 break
-            if not (solid(candidate) or confident(candidate)):
+            if not (solid(candidate) or confident(candidate) or candidate.streak is not None):
                 # Parts of a ball alone, for no longer than the forward tracker allows them.
                 weak_since = (t, index) if weak_since is None else weak_since
                 if weak_too_long(weak_since[0] - t, weak_since[1] - index, tr.figures_guarded):
@@ -122,7 +125,7 @@ class OfflineTracker:
             else:
                 weak_since = None
             xy = tr.pixel_to_table(candidate.u, candidate.v)
-            kalman.update(-t, xy)
+            kalman.update(-t, xy, tr.search.measurement_covariance(candidate, tr.config.measurement_std))
             forward = kalman.state.x * np.array([1.0, 1.0, -1.0, -1.0])
             detection = Detection(t, float(xy[0]), float(xy[1]), BALL_CENTRE_HEIGHT, candidate.u, candidate.v,
                                   candidate.area_ratio)

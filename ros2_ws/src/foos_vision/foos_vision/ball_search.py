@@ -6,11 +6,14 @@ blob it settles on, or (None, ...) (the Lab pixels and their roi give the colour
 - `on_field`: anywhere on the field, for a new track (at half resolution where the ball is big enough there;
   the blobs that nearly pass are measured again at full resolution). It remembers the partial balls it saw,
   and `partial_run` starts a track on a run of them.
+- `streak`: a motion-blurred ball (a shot) within a shot's reach of the track's last detection (streaks.py), in the
+  ball's colour as learned from the whole balls seen (`note_whole_ball`).
 """
 from __future__ import annotations
 
 import math
 from collections import deque
+from typing import Optional
 
 import cv2
 import numpy as np
@@ -24,14 +27,17 @@ from .candidate_rules import (
     PARTIAL_MIN_RATIO,
     PARTIAL_MIN_SCORE,
     PARTIAL_NEAR,
+    STREAK_WIDTH,
     CandidateRules,
     Fixtures,
     confident,
     same_ball_reach,
     solid,
+    streak_ball,
 )
-from .detector import BallDetector, Candidate, ColourModel
+from .detector import FELT_AB_TOL, BallDetector, Candidate, ColourModel
 from .field_view import FieldView
+from .streaks import Streak, find_streaks
 from .velocity import KalmanState
 
 BAND_SEEDS_NEAR = False
@@ -43,6 +49,15 @@ HALF_RES_RATIO, HALF_RES_ROUNDNESS = 0.3, 0.4  # field search at half resolution
 # without the mask): a figure of the ball's colour sliding with its rod (or at rest) makes such a run. 0: off.
 PARTIAL_RUN, PARTIAL_RUN_FIT = 4, 0.003
 NOTHING = (None, None, None)
+SHOT_SPEED = 12.0  # m/s: the fastest shot the streak search reaches for from the track's last detection
+# A streak's centre along its axis is less sure than across it (an end under a figure, a hit during the exposure):
+# sigma along = hypot(the filter's measurement_std, STREAK_ALONG * the motion during the exposure).
+STREAK_ALONG = 0.03
+# The second moments of a streak half behind a figure say it moved less than the fit finds: blobs that moved this
+# many radii by their moments are fitted (CandidateRules: STREAK_MIN_MOTION by the fit).
+STREAK_MOMENT_MOTION = 1.2
+STREAK_FROM = 2.0  # radii: see BallSearch.streak_from
+BALL_COLOUR_SAMPLES = 40  # whole balls in plain view whose mean colour is the streak search's ball colour
 
 
 class BallSearch:
@@ -56,6 +71,12 @@ class BallSearch:
         self.fixtures = Fixtures()
         self._field_lab = None  # Lab pixels of the latest full-resolution field search (of view.roi)
         self._partial_history: deque = deque(maxlen=max(1, PARTIAL_RUN))  # (t, [found tuples]) of field searches
+        self._whole_colours: deque = deque(maxlen=BALL_COLOUR_SAMPLES)  # mean BGR of the whole balls seen
+        self._felt: tuple = (None, None)  # (view.felt_ab it was taken for, the felt's median BGR)
+        # The tracker's last detection was a streak: the track knows the ball less well (where along the streak, how
+        # fast), and a blob next frame is judged as after a frame without the ball (near: a figure of its colour
+        # where a shot went into the goal does not carry the track).
+        self.after_streak = False
 
     @property
     def colour(self) -> ColourModel:
@@ -64,6 +85,7 @@ class BallSearch:
     def near(self, bgr: np.ndarray, state: KalmanState, coast: float = 0.0, coast_frames: int = 0):
         """The ball near the predicted state; coast: seconds since the last detection, coast_frames: frames."""
         view = self.view
+        coast_frames = max(coast_frames, int(self.after_streak))
         ppm = view.mapping.pixels_per_metre(state.x[:2])
         radius = view.table.ball_radius * ppm
         sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
@@ -102,6 +124,97 @@ class BallSearch:
                 bgr, found, self.colour, strict=confident(found)):
             return None, lab, roi
         return found, lab, roi
+
+    def streak(self, bgr: np.ndarray, predicted: KalmanState, last: KalmanState):
+        """A motion-blurred ball within a shot's reach (SHOT_SPEED) of the last detection (`last`, the filter's state
+        then), nearest the prediction: a candidate with its `streak`, or nothing. Not a figure over its rod."""
+        view = self.view
+        since = max(predicted.t - last.t, 0.0)
+        ppm = view.mapping.pixels_per_metre(last.x[:2])
+        radius = view.table.ball_radius * ppm
+        sigma = math.sqrt(max(np.linalg.eigvalsh(last.P[:2, :2]).max(), 0.0)) * ppm
+        reach = (SHOT_SPEED * since) * ppm + 3.0 * sigma + radius
+        start = view.table_to_pixel(last.x[:2])
+        expected = view.table_to_pixel(predicted.x[:2])
+        x0, y0, x1, y1 = view.roi
+        roi = (max(x0, int(start[0] - reach - radius)), max(y0, int(start[1] - reach - radius)),
+               min(x1, int(start[0] + reach + radius) + 1), min(y1, int(start[1] + reach + radius) + 1))
+        if roi[2] - roi[0] < 3 or roi[3] - roi[1] < 3:
+            return NOTHING
+        found = []
+        for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self._felt_colour(bgr),
+                              view.active_region, min_motion=STREAK_MOMENT_MOTION, width=STREAK_WIDTH,
+                              near=(float(expected[0]), float(expected[1]))):
+            r = view.radius_at_pixel(s.u, s.v)
+            if not streak_ball(s, r) or math.hypot(s.u - start[0], s.v - start[1]) > reach:
+                continue
+            c = _streak_candidate(s)
+            if not self.rules.covers_rod(bgr, c, self.colour):
+                found.append(c)
+        if not found:
+            return NOTHING
+        return min(found, key=lambda c: math.hypot(c.u - expected[0], c.v - expected[1])), None, roi
+
+    def streak_from(self, c: Candidate, last: KalmanState) -> bool:
+        """The streak's line passes within STREAK_FROM radii (and 3 sigma) of the last detection: the ball can have
+        gone along it from there, struck or rolling on. A streak that does not is no match for a partly hidden ball
+        where the track expects it (a figure's lit edge, a hand, passes for a streak now and then)."""
+        view = self.view
+        start = view.table_to_pixel(last.x[:2])
+        ppm = view.mapping.pixels_per_metre(last.x[:2])
+        sigma = math.sqrt(max(np.linalg.eigvalsh(last.P[:2, :2]).max(), 0.0)) * ppm
+        off = abs(float(np.cross(c.streak.axis, np.array([start[0] - c.u, start[1] - c.v]))))
+        return off <= STREAK_FROM * view.radius_at_pixel(c.u, c.v) + 3.0 * sigma
+
+    def measurement_covariance(self, c: Candidate, std: float) -> Optional[np.ndarray]:
+        """The covariance (m^2, table frame) of a streak's centre, elongated along it; None for a ball seen as a disc
+        (the filter's own, std round)."""
+        if c.streak is None:
+            return None
+        half = c.streak.axis * c.streak.motion / 2
+        ends = [self.view.pixel_to_table(c.u + sign * half[0], c.v + sign * half[1]) for sign in (-1.0, 1.0)]
+        along = ends[1] - ends[0]
+        motion = float(np.linalg.norm(along))
+        if motion <= 0:
+            return None
+        direction = along / motion
+        sigma_along = math.hypot(std, STREAK_ALONG * motion)
+        return std * std * np.eye(2) + (sigma_along ** 2 - std * std) * np.outer(direction, direction)
+
+    def note_whole_ball(self, bgr: np.ndarray, c: Candidate) -> None:
+        """A whole ball in plain view: its mean colour (within 0.8 radii) is what a streak is a share of."""
+        radius = self.view.radius_at_pixel(c.u, c.v)
+        reach = int(math.ceil(0.8 * radius))
+        x, y = int(round(c.u)), int(round(c.v))
+        if x - reach < 0 or y - reach < 0 or x + reach >= bgr.shape[1] or y + reach >= bgr.shape[0]:
+            return
+        patch = bgr[y - reach:y + reach + 1, x - reach:x + reach + 1].reshape(-1, 3).astype(np.float64)
+        yy, xx = np.mgrid[y - reach:y + reach + 1, x - reach:x + reach + 1]
+        inside = ((xx - c.u) ** 2 + (yy - c.v) ** 2 <= (0.8 * radius) ** 2).ravel()
+        if np.count_nonzero(inside) >= 5:
+            self._whole_colours.append(patch[inside].mean(axis=0))
+
+    def _ball_colour(self) -> np.ndarray:
+        """The ball's mean BGR: the median of the whole balls seen, else the colour model's centre."""
+        if self._whole_colours:
+            return np.median(np.array(self._whole_colours), axis=0)
+        m = self.colour
+        lab = np.array([[[(m.l_min + m.l_max) / 2, m.a, m.b]]], np.uint8)
+        return cv2.cvtColor(lab, cv2.COLOR_Lab2BGR)[0, 0].astype(np.float64)
+
+    def _felt_colour(self, bgr: np.ndarray) -> np.ndarray:
+        """The bare felt's median BGR, taken again whenever the view's felt colour (Lab a, b) is."""
+        felt_ab = self.view.felt_ab
+        if self._felt[0] is None or self._felt[0] != felt_ab:
+            x0, y0, x1, y1 = self.view.roi
+            pixels = np.ascontiguousarray(bgr[y0:y1:4, x0:x1:4])
+            lab = cv2.cvtColor(pixels, cv2.COLOR_BGR2Lab).astype(np.int16)
+            bare = self.view.region[y0:y1:4, x0:x1:4] > 0
+            if felt_ab is not None:
+                bare &= ((np.abs(lab[..., 1] - felt_ab[0]) <= FELT_AB_TOL) & (np.abs(lab[..., 2] - felt_ab[1]) <= FELT_AB_TOL))
+            self._felt = (felt_ab, np.median(pixels[bare].astype(np.float64), axis=0) if np.any(bare) else
+                          np.median(pixels.reshape(-1, 3).astype(np.float64), axis=0))
+        return self._felt[1]
 
     def solid_elsewhere(self, bgr: np.ndarray, tracked: Candidate):
         """A whole ball away from the tracked blob, found with the shading-tolerant colour (or nothing); not a
@@ -223,3 +336,9 @@ class BallSearch:
             return None, lab, roi
         best = min(near, key=lambda c: math.hypot(c.u - centre[0], c.v - centre[1]) / gate - c.score)
         return best, lab, roi
+
+
+def _streak_candidate(s: Streak) -> Candidate:
+    """A streak as a candidate: its share of a disc seen, its roundness the second moments', and the streak."""
+    roundness = 1.0 / math.sqrt(1.0 + s.motion ** 2 / (3.0 * s.radius ** 2))
+    return Candidate(s.u, s.v, s.area_ratio, roundness, min(s.area_ratio, 1.0), streak=s)

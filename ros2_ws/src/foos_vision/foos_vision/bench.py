@@ -22,11 +22,20 @@ The hands case (`overhead-640-60-orange-hands`) is picked up by a rendered hand 
 With `--figure-mask both` (the default) every case is tracked twice: as now, and with the figure mask
 (`+mask` rows), fed the rendered rod joint positions (OUT.joints.csv) as track_video's --joint-states
 or tracker_node's /joint_states would be.
+
+`--shots` runs the shot cases instead (SHOT_CASES): shots at 3-8 m/s toward a goal past rods that hang, lift or lie
+level (foos_vision.shots, filmed by render_video --bag), at 25, 30 and 60 fps with a camera's exposure (half the
+frame interval to all of it, 8-16 sub-frames), so that the ball is a streak several of its widths long. Their `fast`
+columns count the frames where the ball, at least half in view on the table, moves at FAST_SPEED or more (`fast`),
+the share of those with a detection (`fast%`, offline), and the 95th percentile of their errors (`fp95`). A frame in
+whose exposure the ball was hit (a figure, a wall: its direction turned by HIT_TURN or more, from the shots' own
+states) is counted apart (`hits`, and their recall `hit%`): its streak is bent, and its centre is not measured.
 """
 from __future__ import annotations
 
 import argparse
 import math
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -36,6 +45,8 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+
+from foos_bag import read_ball_states
 
 from .backfill import OfflineTracker
 from .boards import board_views
@@ -48,6 +59,8 @@ from .velocity import central_differences
 from .video_io import VideoReader
 
 AIRBORNE_Z = 0.0225  # m: ball centre more than 5 mm above its resting height
+FAST_SPEED = 1.5  # m/s: a ball this fast moves more than its width in half a 25 fps frame: a streak
+HIT_TURN, HIT_SPEED = math.radians(20.0), 0.5  # a hit turns a ball going HIT_SPEED or faster by HIT_TURN or more
 TARGETS = {"median_mm": 2.0, "p95_mm": 5.0, "recall": 0.98, "false_per_1000": 1.0}
 THROUGHPUT_TARGETS = {(640, 480): 200.0, (1280, 720): 60.0}
 
@@ -68,6 +81,9 @@ class Case:
     hands: bool = False  # a player's hand picks the ball up (render_video --hands); the tracker is not told
     home: str = ""  # the figures' colours (render_video --home-color/--away-color); "": foos_sim's red and blue
     away: str = ""
+    exposure: float = 0.5  # the shutter's share of the frame interval (render_video --exposure; with blur > 1)
+    shots: bool = False  # shots (foos_vision.shots) instead of the play scenario
+    length: float = 1.0  # the case's video is this many times --duration
 
 
 CASES = (
@@ -84,16 +100,34 @@ CASES = (
     # ball colour nearest skin. (Last in the list, so the other cases keep their seeds.)
     Case("overhead-640-60-orange-hands", "overhead", 640, 480, 60, "orange", hands=True),
 )
+# Shots past figures, the ball a streak (foos_vision.shots): the issue's 25 fps with a shutter open all of the frame
+# interval and half of it, 30 fps, and 60 fps; figures of the ball's colour in two; twice as long as the others, since
+# a shot is over in a few frames.
+SHOT_CASES = (
+    Case("shots-1280-25-yellow-exp1.0", "overhead", 1280, 720, 25, "yellow", blur=12, exposure=1.0, shots=True,
+         length=2.0),
+    Case("shots-1280-25-yellow-same-exp0.5", "overhead", 1280, 720, 25, "yellow", blur=8, exposure=0.5, shots=True,
+         length=2.0, home="yellow"),
+    Case("shots-640-30-orange-exp0.5", "overhead", 640, 480, 30, "orange", blur=8, exposure=0.5, shots=True,
+         length=2.0),
+    Case("shots-640-60-yellow-same-exp0.8", "overhead", 640, 480, 60, "yellow", blur=8, exposure=0.8, shots=True,
+         length=2.0, away="yellow"),
+)
 CALIBRATION_VIEWS = 16  # checkerboard views for the +calib row (9x6 inner corners, 30 mm squares)
 
 
 def render_case(case: Case, out: Path, duration: float, seed: int, reuse: bool = False) -> Path:
     video = out / f"{case.name}.mp4"
+    duration *= case.length
     command = [sys.executable, "-m", "foos_vision.render_cli", str(video), "--camera", case.camera,
                "--width", str(case.width), "--height", str(case.height), "--fps", str(case.fps),
                "--ball-color", case.colour, "--blur", str(case.blur), "--lighting", str(case.lighting),
-               "--duration", str(duration), "--seed", str(seed), "--hide-every", "1.0", "--hide-for", "0.3",
+               "--exposure", str(case.exposure), "--duration", str(duration), "--seed", str(seed),
                "--visibility", "--overwrite", "--quiet"]
+    if case.shots:
+        command += ["--bag", str(out / f"{case.name}.shots")]
+    else:
+        command += ["--hide-every", "1.0", "--hide-for", "0.3"]
     if case.distortion:
         command += ["--distortion=" + ",".join(str(v) for v in case.distortion)]
     if case.hands:
@@ -102,6 +136,10 @@ def render_case(case: Case, out: Path, duration: float, seed: int, reuse: bool =
     if reuse and video.exists() and Path(f"{out / case.name}.truth.csv").exists() \
             and Path(f"{out / case.name}.joints.csv").exists():
         return video
+    if case.shots:
+        shutil.rmtree(out / f"{case.name}.shots", ignore_errors=True)
+        subprocess.run([sys.executable, "-m", "foos_vision.shots", str(out / f"{case.name}.shots"), "--duration",
+                        str(duration), "--seed", str(seed)], check=True, stdout=subprocess.DEVNULL)
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
     return video
 
@@ -170,6 +208,12 @@ def evaluate(video: Path, case: Case, figure_mask: bool = False, intrinsics=None
     errors = np.array([math.hypot(d.x - truth["x"][k], d.y - truth["y"][k]) * 1000 for k, d in detections.items()
                        if in_view[k] and on_table[k]])
     half = np.nonzero((visible >= 0.5) & on_table)[0]
+    speed = np.hypot(np.nan_to_num(truth["vx"][:n]), np.nan_to_num(truth["vy"][:n]))
+    hit = hit_during_exposure(f"{stem}.shots", n, fps, case.exposure) if case.shots else np.zeros(n, bool)
+    streaks = (visible >= 0.5) & on_table & (speed >= FAST_SPEED)
+    fast, hits = np.nonzero(streaks & ~hit)[0], np.nonzero(streaks & hit)[0]
+    fast_errors = np.array([math.hypot(detections[k].x - truth["x"][k], detections[k].y - truth["y"][k]) * 1000
+                            for k in fast if k in detections])
     hidden = np.nonzero(visible <= 0.0)[0]
     recall = float(np.mean([k in detections for k in half])) if len(half) else math.nan
     online_recall = float(np.mean([k in online for k in half])) if len(half) else math.nan
@@ -191,6 +235,9 @@ def evaluate(video: Path, case: Case, figure_mask: bool = False, intrinsics=None
         "median_mm": float(np.median(errors)) if len(errors) else math.nan,
         "p95_mm": float(np.percentile(errors, 95)) if len(errors) else math.nan,
         "recall": recall, "online_recall": online_recall, "half_visible_frames": len(half),
+        "fast_frames": len(fast), "fast_recall": float(np.mean([k in detections for k in fast])) if len(fast) else math.nan,
+        "fast_p95_mm": float(np.percentile(fast_errors, 95)) if len(fast_errors) else math.nan,
+        "hit_frames": len(hits), "hit_recall": float(np.mean([k in detections for k in hits])) if len(hits) else math.nan,
         "backfilled": offline.backfilled,
         "false_per_1000": 1000.0 * false / len(hidden) if len(hidden) else math.nan, "hidden_frames": len(hidden),
         "speed_err_cd": speed_error(v_cd), "speed_err_kf": speed_error(v_kf),
@@ -200,15 +247,34 @@ def evaluate(video: Path, case: Case, figure_mask: bool = False, intrinsics=None
     }
 
 
+def hit_during_exposure(bag: str, n: int, fps: float, exposure: float) -> np.ndarray:
+    """Per frame: the ball was hit while the shutter was open (its direction turned by HIT_TURN or more between two
+    states going HIT_SPEED or faster), by the shots' own states (a bag of foos_vision.shots, on the video's clock)."""
+    states = read_ball_states(bag)
+    velocity = np.asarray(states.velocity)[:, :2]
+    moving = np.hypot(*velocity.T) >= HIT_SPEED
+    heading = np.arctan2(velocity[:, 1], velocity[:, 0])
+    hit = np.zeros(n, bool)
+    for k in range(n):
+        during = moving & (np.abs(states.t - k / fps) <= exposure / (2 * fps))
+        if np.count_nonzero(during) >= 2:
+            turn = np.angle(np.exp(1j * (heading[during] - heading[during][0])))
+            hit[k] = float(np.ptp(np.unwrap(turn))) >= HIT_TURN
+    return hit
+
+
 def format_row(r: dict) -> str:
     return (f"{r['case']:<42} {r['frames']:>5} {r['half_visible_frames']:>5} {r['hidden_frames']:>5} "
             f"{r['median_mm']:>7.2f} {r['p95_mm']:>7.2f} {100 * r['recall']:>7.1f} {100 * r['online_recall']:>6.1f} "
             f"{r['false_per_1000']:>8.1f} {r['speed_err_cd']:>7.3f} {r['speed_err_kf']:>7.3f} "
-            f"{r['fps_track']:>7.0f} {r['fps_with_decode']:>7.0f} {r['airborne_frames']:>5}  {r['colour']}")
+            f"{r['fps_track']:>7.0f} {r['fps_with_decode']:>7.0f} {r['airborne_frames']:>5}  {r['colour']:<7}"
+            f"{r['fast_frames']:>5} {100 * r['fast_recall']:>6.1f} {r['fast_p95_mm']:>6.2f} {r['hit_frames']:>5} "
+            f"{100 * r['hit_recall']:>5.1f}")
 
 
 HEADER = (f"{'case':<42} {'frames':>5} {'half':>5} {'hid':>5} {'med mm':>7} {'p95 mm':>7} {'recall%':>7} {'onl%':>6} "
-          f"{'false/1k':>8} {'|dv|cd':>7} {'|dv|kf':>7} {'fps':>7} {'fps+dec':>7} {'air':>5}  colour")
+          f"{'false/1k':>8} {'|dv|cd':>7} {'|dv|kf':>7} {'fps':>7} {'fps+dec':>7} {'air':>5}  {'colour':<7}"
+          f"{'fast':>5} {'fast%':>6} {'fp95':>6} {'hits':>5} {'hit%':>5}")
 
 
 def run(duration: float, cases: list[Case], workdir: Path, seed: int = 1, echo=print, reuse: bool = False,
@@ -251,7 +317,9 @@ def main(argv=None) -> None:
     p = argparse.ArgumentParser(prog="bench_vision", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--duration", type=float, default=4.0, help="seconds of video per case (default 4)")
-    p.add_argument("--cases", help="comma-separated case names (default all): " + ", ".join(c.name for c in CASES))
+    p.add_argument("--cases", help="comma-separated case names (default all of the set): "
+                   + ", ".join(c.name for c in CASES + SHOT_CASES))
+    p.add_argument("--shots", action="store_true", help="the shot cases (the ball a streak) instead of the classic eight")
     p.add_argument("--workdir", help="keep the rendered videos here (default a temporary directory)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--reuse", action="store_true", help="track the videos already in --workdir instead of rendering")
@@ -259,13 +327,13 @@ def main(argv=None) -> None:
                    help="track without the figure mask from the rendered joint positions, with it (+mask rows), "
                         "or both (default)")
     args = p.parse_args(argv)
-    cases = list(CASES)
+    cases = list(SHOT_CASES if args.shots else CASES)
     if args.cases:
         wanted = args.cases.split(",")
-        unknown = set(wanted) - {c.name for c in CASES}
+        unknown = set(wanted) - {c.name for c in cases}
         if unknown:
-            p.error(f"unknown cases {sorted(unknown)}")
-        cases = [c for c in CASES if c.name in wanted]
+            p.error(f"unknown cases {sorted(unknown)}" + (" (shot cases need --shots)" if not args.shots else ""))
+        cases = [c for c in cases if c.name in wanted]
     if args.workdir:
         Path(args.workdir).mkdir(parents=True, exist_ok=True)
         run(args.duration, cases, Path(args.workdir), args.seed, reuse=args.reuse, figure_mask=args.figure_mask)

@@ -7,6 +7,8 @@
   joined in (nearly) the ball's colour to a stretch of rod it covers is a figure's leg or foot
   (`joined_to_a_covered_rod`); with the figure mask, a partial blob centred on a figure's foot is that foot
   (`on_a_foot`).
+- A motion-blurred ball (streaks.py): a streak that is a ball (`streak_ball`), and when one is looked for
+  (`streak_search_due`).
 - The table's own fixtures: a ball-like blob at the same pixel frame after frame (`Fixtures`).
 - Time: how long a track may live on partial blobs alone (`weak_too_long`) and how far apart two sightings of
   one ball may be (`same_ball_reach`).
@@ -19,6 +21,7 @@ import numpy as np
 from .detector import Candidate, ColourModel
 from .field_view import FieldView
 from .rod_lines import STEEL_AB_TOL
+from .streaks import Streak
 
 # Longest a track may live on partly hidden blobs alone: WEAK_TRACK_LIMIT seconds or WEAK_TRACK_FRAMES frames,
 # whichever is longer. What tells a ball under a rod from a figure of its colour is the number of frames in
@@ -53,6 +56,18 @@ FIGURE_REACH = 5.0
 # rod lies at least its radius and the figure's half width (1.7 radii for a 24 mm body) from the body's middle.
 FIGURE_ALONG = 0.8
 FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it counts as part of the table
+# A streak (streaks.py) is a ball when it moved at least STREAK_MIN_MOTION radii during the exposure (less, and the
+# ball's disc is whole enough for the colour box), its model explains STREAK_EXPLAINED of the shares' squares around
+# it, it rested for at most STREAK_REST of the exposure, it shows STREAK_SEEN of a disc's worth of shares, is
+# STREAK_WIDTH of a disc's spread across its axis and its fitted contrast is STREAK_CONTRAST of the learned colour's.
+STREAK_MIN_MOTION, STREAK_EXPLAINED, STREAK_REST = 2.0, 0.85, 0.7
+STREAK_SEEN, STREAK_WIDTH, STREAK_CONTRAST = (0.3, 1.6), (0.7, 1.3), (0.6, 1.15)
+# And the felt behind its pixels is STREAK_FELT as bright as the median felt, their colour STREAK_BIAS levels or less
+# off the plane of the ball's and the felt's, in the median (a red smear for a yellow ball: 0.78 and +9 levels; the
+# streaks of a shot render at 1280x720: 0.75-1.05 and -2.6 to +0.1).
+STREAK_FELT, STREAK_BIAS = (0.7, 1.3), 4.0
+# The streak search runs while the track has seen no ball for at most STREAK_COAST s or STREAK_COAST_FRAMES frames.
+STREAK_COAST, STREAK_COAST_FRAMES = 0.1, 3
 
 
 def weak_too_long(seconds: float, frames: int, masked: bool = False) -> bool:
@@ -62,12 +77,32 @@ def weak_too_long(seconds: float, frames: int, masked: bool = False) -> bool:
 
 def confident(c: Candidate) -> bool:
     """Nearly the ball's full disc and round: a ball to follow, or to count in the colour vote."""
-    return 0.6 <= c.area_ratio <= 1.5 and c.roundness >= 0.65
+    return c.streak is None and 0.6 <= c.area_ratio <= 1.5 and c.roundness >= 0.65
 
 
 def solid(c: Candidate, min_ratio: float = 0.75) -> bool:
     """A whole ball in plain view: nearly the full disc, round, filled, and not part of a larger blob."""
-    return min_ratio <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85 and c.spill <= MAX_SPILL
+    return (c.streak is None and min_ratio <= c.area_ratio <= 1.3 and c.roundness >= 0.8 and c.fill >= 0.85
+            and c.spill <= MAX_SPILL)
+
+
+def streak_ball(s: Streak, radius: float) -> bool:
+    """A ball that moved at least STREAK_MIN_MOTION radii while the shutter was open, and nothing else: its fitted
+    model explains the shares around it (a rod's highlight, a figure's lit edge, a hand are not a disc's smear), it
+    moved for most of the exposure, enough of the exposure's shares are seen, not more than a ball's worth (a figure
+    or a hand of the ball's colour is solid colour over more than a disc), it is as wide as the ball across its axis
+    (a path bent by a hit during the exposure is wider: its centre is not measured), the learned colour explains
+    its contrast, and its pixels are that colour over felt as bright as the rest (Streak.felt_scale, .bias)."""
+    return (s.motion >= STREAK_MIN_MOTION * radius and s.explained >= STREAK_EXPLAINED and s.rest <= STREAK_REST
+            and STREAK_SEEN[0] <= s.area_ratio <= STREAK_SEEN[1] and STREAK_WIDTH[0] <= s.width_ratio <= STREAK_WIDTH[1]
+            and STREAK_CONTRAST[0] <= s.contrast <= STREAK_CONTRAST[1]
+            and STREAK_FELT[0] <= s.felt_scale <= STREAK_FELT[1] and abs(s.bias) <= STREAK_BIAS)
+
+
+def streak_search_due(seconds: float, frames: int) -> bool:
+    """A track that has seen no ball for this long may still find it as a streak: a shot shows in the next frames or
+    not at all (after that the search would cover the field, for a ball most often picked up)."""
+    return seconds <= STREAK_COAST or frames < STREAK_COAST_FRAMES
 
 
 def same_ball_reach(view: FieldView, u: float, v: float, seconds: float) -> float:

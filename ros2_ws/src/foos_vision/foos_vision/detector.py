@@ -16,6 +16,8 @@ from typing import Callable, Optional
 import cv2
 import numpy as np
 
+from .streaks import Streak
+
 BALL_COLOR_NAMES = ("white", "yellow", "orange", "red")
 # A blob merged with something of the ball's colour holds a ball only where it is at least this thick (radii
 # of the largest disc inside). A ball half hidden by a rod it touches keeps half its radius; a rod or a line
@@ -110,6 +112,9 @@ class Candidate:
     # Share of the disc behind something known to be in front of the ball (a steel rod); area_ratio, fill and
     # roundness are then taken over the rest.
     hidden: float = 0.0
+    # A motion-blurred ball (streaks.find_streaks): its centre is the ball at mid-exposure, area_ratio the shares of
+    # the exposure seen over the disc. None: a ball seen as a disc (or part of one).
+    streak: Optional[Streak] = None
 
 
 def _refine_centre(mask: np.ndarray, u: float, v: float, radius: float) -> tuple[float, float, float]:

@@ -18,7 +18,15 @@ import numpy as np
 from .ball_colour import ColourLearner, ColourVote
 from .ball_search import NOTHING, BallSearch
 from .camera import Intrinsics
-from .candidate_rules import ACQUIRE_WINDOW, MAX_SPILL, confident, same_ball_reach, solid, weak_too_long
+from .candidate_rules import (
+    ACQUIRE_WINDOW,
+    MAX_SPILL,
+    confident,
+    same_ball_reach,
+    solid,
+    streak_search_due,
+    weak_too_long,
+)
 from .detector import BALL_COLOR_NAMES, BallDetector, Candidate, ColourModel, colour_model, learn_colour
 from .field_corners import FieldReference
 from .field_view import FieldView
@@ -174,14 +182,16 @@ class BallTracker:
             if not self._colour_settled:
                 return None  # no colour yet: a guess could be a rod or a hand
         chosen, lab_roi, roi = self._find(bgr, t)
+        self.search.after_streak = chosen is not None and chosen.streak is not None
         if chosen is not None and chosen.hidden == 0 and solid(chosen, ACQUIRE_SOLID_RATIO):
             self._measure_edge(chosen)
+            self.search.note_whole_ball(bgr, chosen)
         if chosen is None:
             self._misses += 1
             return None
         self._misses = 0
         xy = self.view.pixel_to_table(chosen.u, chosen.v)
-        self.kalman.update(t, xy)
+        self.kalman.update(t, xy, self.search.measurement_covariance(chosen, self.config.measurement_std))
         self.stats.detections += 1
         if self.config.learn_after > 0 and not self._learner.learned and self._colour_settled and confident(chosen):
             self._learn_colour(lab_roi, roi, chosen)
@@ -196,6 +206,16 @@ class BallTracker:
                 self._weak_since = None
                 self._confident_run = 0
                 return found
+            # No ball where the track expects one, or only part of one that is not round: a shot's motion-blurred
+            # streak, within a shot's reach (a ball that moved its width or more while the shutter was open is not a
+            # round blob; a round one half in its colour box, a white ball's shaded side, is not looked past).
+            round_ball = found[0] is not None and confident(found[0]) and found[0].roundness >= HEALTHY_ROUNDNESS
+            blurred = (self.search.streak(bgr, predicted, self.kalman.state)
+                       if not round_ball and streak_search_due(t - self.kalman.state.t, self._misses) else NOTHING)
+            if blurred[0] is not None and (found[0] is None or self.search.streak_from(blurred[0], self.kalman.state)):
+                self._weak_since = None
+                self._confident_run = 0
+                return blurred
             if found[0] is not None:
                 return self._follow_partial(bgr, t, found)
         return self._acquire(bgr, t)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -64,25 +65,30 @@ class ConstantVelocityKalman:
         x, p = self._predicted(t)
         return KalmanState(t, x, p)
 
-    def update(self, t: float, xy: np.ndarray) -> KalmanState:
+    def update(self, t: float, xy: np.ndarray, covariance: Optional[np.ndarray] = None) -> KalmanState:
+        """covariance: this measurement's (2x2, m^2), where it is not the filter's round measurement_std: a motion-
+        blurred ball's centre is surer across its streak than along it."""
         xy = np.asarray(xy, float)
+        r = self.r * np.eye(2) if covariance is None else np.asarray(covariance, float)
         if self.state is not None and t <= self.state.t:
             return self.state  # an out-of-order frame cannot move the filter backwards
         if self.state is None or t - self.state.t > self.max_gap:
-            return self._start(t, xy)
+            return self._start(t, xy, r)
         x, p = self._predicted(t)
         innovation = xy - x[:2]
-        s = p[:2, :2] + self.r * np.eye(2)
+        s = p[:2, :2] + r
         if innovation @ np.linalg.solve(s, innovation) > self.restart_sigma**2:
             # A hit (wall, figure, hand): the old velocity is no guide; start over from this position.
-            return self._start(t, xy)
+            return self._start(t, xy, r)
         gain = p[:, :2] @ np.linalg.inv(s)
         x = x + gain @ innovation
         p = (np.eye(4) - gain[:, :2] @ np.eye(2, 4)) @ p
         self.state = KalmanState(t, x, 0.5 * (p + p.T))
         return self.state
 
-    def _start(self, t: float, xy: np.ndarray) -> KalmanState:
+    def _start(self, t: float, xy: np.ndarray, r: np.ndarray) -> KalmanState:
         # A new track: position known to the measurement, velocity to what a hand can throw (3 m/s).
-        self.state = KalmanState(t, np.array([xy[0], xy[1], 0.0, 0.0]), np.diag([self.r, self.r, 9.0, 9.0]))
+        p = np.diag([0.0, 0.0, 9.0, 9.0])
+        p[:2, :2] = r
+        self.state = KalmanState(t, np.array([xy[0], xy[1], 0.0, 0.0]), p)
         return self.state

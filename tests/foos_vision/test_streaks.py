@@ -1,0 +1,143 @@
+"""A motion-blurred ball (foos_vision.streaks): drawn streaks with a known mid-exposure centre, found and placed where a
+rod crosses them, a figure hides an end or the ball was struck from rest; what is not a streak; and the Kalman filter's
+covariance per detection. The tracker on rendered shots: test_streaks_video.py."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from foos_vision.candidate_rules import STREAK_WIDTH, streak_ball
+from foos_vision.streaks import find_streaks
+from foos_vision.velocity import ConstantVelocityKalman
+
+FELT = np.array([51.0, 133.0, 27.0])  # BGR of the rendered felt
+YELLOW = np.array([40.0, 235.0, 255.0])  # BGR of a yellow ball's lit top
+SHADING = 0.5  # the ball's rim is this much darker than its top: lit from above, the mean of its inner disc (the
+# colour the tracker learns) is 1 / 0.89 of the whole disc's, as on the renders
+SIZE = (240, 360)  # h, w
+RADIUS = 8.0  # px
+SUPERSAMPLE = 3
+
+
+def exposure(path: list, ball=YELLOW, felt=FELT, noise: float = 1.5, seed: int = 0) -> np.ndarray:
+    """The mean of frames of the felt with the ball's disc at each point of path (pixels): a frame exposed while the
+    ball went along it, as a camera integrates it (shaded, anti-aliased discs, sensor noise)."""
+    h, w = SIZE
+    ys, xs = np.mgrid[0:h * SUPERSAMPLE, 0:w * SUPERSAMPLE]
+    xs, ys = (xs + 0.5) / SUPERSAMPLE - 0.5, (ys + 0.5) / SUPERSAMPLE - 0.5
+    total = np.zeros((h, w, 3), np.float64)
+    for centre in path:
+        d2 = ((xs - centre[0]) ** 2 + (ys - centre[1]) ** 2) / RADIUS ** 2
+        inside = d2 <= 1.0
+        shade = np.where(inside, 1.0 - SHADING * d2, 0.0)
+        cover = inside.reshape(h, SUPERSAMPLE, w, SUPERSAMPLE).mean(axis=(1, 3))[..., None]
+        lit = shade.reshape(h, SUPERSAMPLE, w, SUPERSAMPLE).mean(axis=(1, 3))[..., None]
+        total += lit * ball + (1.0 - cover) * felt
+    image = total / len(path) + np.random.default_rng(seed).normal(0.0, noise, (h, w, 3))
+    return np.clip(image + 0.5, 0, 255).astype(np.uint8)
+
+
+def learned_colour(ball=YELLOW) -> np.ndarray:
+    """What the tracker learns from a whole ball at rest: the mean colour within 0.8 radii (BallSearch.note_whole_ball)."""
+    image = exposure([np.array([180.0, 120.0])], ball, noise=0.0)
+    ys, xs = np.mgrid[0:SIZE[0], 0:SIZE[1]]
+    return image[(xs - 180.0) ** 2 + (ys - 120.0) ** 2 <= (0.8 * RADIUS) ** 2].astype(np.float64).mean(axis=0)
+
+
+def moving(start, end, steps: int = 96, rest: float = 0.0) -> list[np.ndarray]:
+    """Centres over an exposure: resting at start for a share `rest` of it, then uniformly to end."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    times = (np.arange(steps) + 0.5) / steps
+    return [start if t < rest else start + (t - rest) / (1.0 - rest) * (end - start) for t in times]
+
+
+def mid_exposure(start, end, rest: float = 0.0) -> np.ndarray:
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    return start if rest >= 0.5 else start + (0.5 - rest) / (1.0 - rest) * (end - start)
+
+
+def streaks_in(image: np.ndarray) -> list:
+    h, w = SIZE
+    return find_streaks(image, (0, 0, w, h), lambda u, v: RADIUS, learned_colour(), FELT, width=STREAK_WIDTH)
+
+
+def the_streak(image: np.ndarray, near: np.ndarray):
+    found = [s for s in streaks_in(image) if streak_ball(s, RADIUS)]
+    assert found, "no streak found"
+    return min(found, key=lambda s: math.hypot(s.u - near[0], s.v - near[1]))
+
+
+# 17, 13 and 3 radii long: a shot at 8, 6 and 1.5 m/s filmed at 25 fps with the shutter open all of the frame interval
+# (longer than about 20 radii, a streak's shares fall to the noise's).
+@pytest.mark.parametrize("start,end", [((100.3, 100.0), (235.0, 124.6)), ((250.0, 60.0), (170.5, 141.2)),
+                                       ((100.0, 120.0), (124.0, 120.0))])
+def test_a_streak_is_found_at_its_mid_exposure_centre(start, end):
+    image = exposure(moving(start, end))
+    s = the_streak(image, mid_exposure(start, end))
+    truth = mid_exposure(start, end)
+    assert math.hypot(s.u - truth[0], s.v - truth[1]) < 0.5, (s.u, s.v, truth)
+    length = math.hypot(end[0] - start[0], end[1] - start[1])
+    assert abs(s.motion - length) < 0.05 * length + 1.0, (s.motion, length)
+    # The shares add up to a disc: those over ALPHA_MIN, most of it (a long streak's faint sides are below), and the
+    # fitted model's (its contrast against the learned colour's, that of the lit top: 0.89).
+    assert 0.6 < s.area_ratio < 1.0 and 0.85 < s.contrast < 0.95 and s.explained > 0.9, s
+    assert abs(abs(float(np.dot(s.axis, np.subtract(end, start)))) / length - 1.0) < 0.01
+
+
+def test_a_rod_across_the_streak_and_a_figure_over_its_end_do_not_move_it():
+    start, end = (100.0, 120.0), (230.0, 128.0)
+    image = exposure(moving(start, end))
+    image[:, 150:158] = (120, 122, 125)  # a steel rod across the middle: in front of the ball
+    image[100:150, 215:260] = (200, 50, 25)  # a blue figure over the far end
+    truth = mid_exposure(start, end)
+    s = the_streak(image, truth)
+    assert math.hypot(s.u - truth[0], s.v - truth[1]) < 1.5, (s.u, s.v, truth)
+    # The centroid of the shares seen is pulled toward what shows: the fit is what places it.
+    assert math.hypot(s.cu - truth[0], s.cv - truth[1]) > 5.0
+
+
+@pytest.mark.parametrize("rest", [0.2, 0.4])
+def test_a_ball_struck_from_rest_is_where_it_was_at_mid_exposure(rest):
+    start, end = (80.0, 110.0), (180.0, 130.0)  # 13 radii in 60-80 % of the exposure
+    image = exposure(moving(start, end, rest=rest))
+    truth = mid_exposure(start, end, rest)
+    s = the_streak(image, truth)
+    assert math.hypot(s.u - truth[0], s.v - truth[1]) < 1.5, (s.u, s.v, truth, s.rest)
+
+
+def test_what_is_not_a_streak():
+    # A figure of the ball's colour lying level (a bar of solid colour), a steel rod's white highlight for a white
+    # ball (a line), and a ball at rest: none is a streak of a moving ball.
+    bar = exposure([np.array([-100.0, -100.0])])
+    bar[100:124, 100:210] = learned_colour().astype(np.uint8)
+    assert not [s for s in streaks_in(bar) if streak_ball(s, RADIUS)]
+    white, grey = learned_colour(np.array([240.0, 240.0, 240.0])), np.array([120.0, 122.0, 125.0])
+    line = exposure([np.array([-100.0, -100.0])])
+    line[:, 150:158] = grey.astype(np.uint8)
+    line[:, 153:155] = white.astype(np.uint8)
+    h, w = SIZE
+    assert not [s for s in find_streaks(line, (0, 0, w, h), lambda u, v: RADIUS, white, FELT, width=STREAK_WIDTH)
+                if streak_ball(s, RADIUS)]
+    still = exposure(moving((180.0, 120.0), (180.0, 120.0)))
+    assert not [s for s in streaks_in(still) if streak_ball(s, RADIUS)]
+
+
+def test_the_filter_trusts_a_streak_across_more_than_along():
+    along = np.array([1.0, 0.0])
+    covariance = 1.5e-3 ** 2 * np.eye(2) + (8e-3 ** 2 - 1.5e-3 ** 2) * np.outer(along, along)
+    moved = {}
+    for name, offset in (("along", (0.01, 0.0)), ("across", (0.0, 0.01))):
+        kalman = ConstantVelocityKalman()
+        for k in range(5):
+            kalman.update(0.04 * k, (0.0, 0.0))
+        state = kalman.update(0.2, offset, covariance)
+        moved[name] = float(np.linalg.norm(state.x[:2]))
+    assert moved["across"] > 1.5 * moved["along"], moved
+    # A measurement far along the streak is within its uncertainty: no restart (the velocity is kept).
+    kalman = ConstantVelocityKalman()
+    for k in range(5):
+        kalman.update(0.04 * k, (0.04 * k, 0.0))
+    state = kalman.update(0.2, (0.2 + 0.02, 0.0), covariance)
+    assert state.x[2] > 0.5
