@@ -12,6 +12,9 @@ the real cause would, never by a correction added on top of the simulation:
 | surface_dent         | a height field in place of the flat field geom (reference physics); on the |
 |                      | fast physics the dent's slope pushes the ball (DentSlopes)                 |
 | wall_restitution     | the ball-wall contacts' damping (all walls, or the named one)              |
+| rod_latency,         | not MuJoCo: the drives' dead time, speed and acceleration limits shape the |
+| rod_speed_limit,     | velocity target of the servos (foos_sim.drive_limits.DriveShaper, applied  |
+| rod_acceleration_... | by TableSimulation on both physics)                                         |
 
 The contract defines each parameter by what is observed on a rolling ball (a deceleration), so the
 conversions below include the rolling ball's effective mass, 7/5 of its mass: a force at the centre
@@ -25,6 +28,9 @@ from typing import Any
 
 import numpy as np
 
+from .drive_limits import DRIVE_EFFECT_NAMES, DriveEffectError, drive_limits_from_effects
+
+# The table and ball effects (the free-roll calibration's vocabulary); the drive effects are DRIVE_EFFECT_NAMES.
 EFFECT_NAMES = (
     "table_tilt",
     "rolling_resistance",
@@ -33,6 +39,8 @@ EFFECT_NAMES = (
     "surface_dent",
     "wall_restitution",
 )
+
+MODEL_EFFECT_NAMES = EFFECT_NAMES + DRIVE_EFFECT_NAMES  # every effect a parameter file may carry
 
 # Rolling solid sphere: m_eff = m + I / r^2 = 7/5 m.
 ROLLING_MASS_FACTOR = 7.0 / 5.0
@@ -120,10 +128,16 @@ def resolve(params: dict) -> Physics:
     physics = Physics(gravity=(0.0, 0.0, -g), rolling_deceleration=float(ball["rolling_deceleration"]))
     seen: set[str] = set()
     drag_coefficient = None
+    try:
+        drive_limits_from_effects(params.get("effects"))  # the drive effects are TableSimulation's: checked here
+    except DriveEffectError as error:
+        raise EffectError(str(error)) from None
     for effect in params.get("effects", []) or []:
         name = effect.get("name")
+        if name in DRIVE_EFFECT_NAMES:
+            continue
         if name not in EFFECT_NAMES:
-            raise EffectError(f"unknown effect `{name}` (known: {', '.join(EFFECT_NAMES)})")
+            raise EffectError(f"unknown effect `{name}` (known: {', '.join(MODEL_EFFECT_NAMES)})")
         key = name if name != "wall_restitution" else f"{name}:{(effect.get('params') or {}).get('wall', '*')}"
         if key in seen and name != "surface_dent":
             raise EffectError(f"effect `{name}` is given twice")

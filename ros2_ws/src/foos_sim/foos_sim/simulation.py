@@ -12,6 +12,12 @@ Commands follow the contract: per team 8 target joint velocities in the table fr
 Two physics (foos_sim.model_builder.PHYSICS, `solver.physics` in the parameter file, or the `physics`
 argument): `fast` (the default, 500 Hz, impacts resolved by foos_sim.impacts between MuJoCo's collision
 and its forces) and `reference` (the 20 kHz springs, stepped by mj_step alone).
+
+The drive effects of the parameter file (rod_latency, rod_speed_limit, rod_acceleration_limit) sit between
+set_command and the servos on both physics (foos_sim.drive_limits.DriveShaper): the fast physics updates
+the servo targets before every 2 ms step; the reference updates them at its chunk boundaries (0.25 ms),
+only when a delayed command falls due (within a chunk of its time) and every RAMP_UPDATE while a target
+ramps, not at each 0.05 ms step. Without drive effects nothing of this runs.
 """
 from __future__ import annotations
 
@@ -33,6 +39,7 @@ from foos_core.names import (
 )
 from foos_core.table_params import load_params
 
+from .drive_limits import DriveShaper, Servo, drive_limits_from_effects
 from .drives import ImplicitForceLimits
 from .effects import DentSlopes
 from .impacts import ImpactSolver
@@ -46,6 +53,9 @@ AWAY_SCORES = "away"
 REFERENCE_CHUNK_STEPS = 5
 # A figure's surface may move a little faster than its drives' limits (servo overshoot, a rod's recoil).
 FIGURE_SPEED_MARGIN = 1.2
+# On the reference physics a ramping drive target (an acceleration limit) is updated this often: a ramp held
+# 1 ms moves the target at most a_max * 1 ms (0.05 m/s at 50 m/s^2), well inside the servo's own lag.
+RAMP_UPDATE = 0.001
 
 
 class CommandError(ValueError):
@@ -93,6 +103,9 @@ class TableSimulation:
             team: np.array([self.model.actuator(name).id for name in team_joint_names(team)]) for team in TEAMS
         }
         self.command_limits = np.array([self.model.actuator(n).ctrlrange[1] for n in team_joint_names("home")])
+        drive_limits = drive_limits_from_effects(self.params.get("effects"))
+        self._shaper = DriveShaper(drive_limits, np.tile(self.command_limits, len(TEAMS))) if drive_limits else None
+        self._all_ctrl = np.concatenate([self._team_ctrl[t] for t in TEAMS])
         # For each team (TEAMS order), which geoms are its figures', indexed by geom id.
         geom_teams = [figure_team(self.model.geom(g).name) for g in range(self.model.ngeom)]
         self._team_figure_geoms = tuple(np.array([owner == team for owner in geom_teams]) for team in TEAMS)
@@ -163,15 +176,36 @@ class TableSimulation:
         if team not in self._team_ctrl:
             raise CommandError(f"unknown team `{team}` (expected one of {TEAMS})")
         clipped = self.validate_command(command).clip(-self.command_limits, self.command_limits)
+        if self._shaper is not None:
+            self._shaper.receive(self.time, TEAMS.index(team), clipped)  # acts through the drive's limits
+            return clipped
         self.data.ctrl[self._team_ctrl[team]] = clipped
         if self._drives is not None:
             self._drives.disturb()
         return clipped
 
     def stop_team(self, team: str) -> None:
+        if self._shaper is not None:
+            # A stop is a zero command to the drives: it too arrives after their dead time and decelerates.
+            self._shaper.receive(self.time, TEAMS.index(team), np.zeros(COMMAND_SIZE))
+            return
         self.data.ctrl[self._team_ctrl[team]] = 0.0
         if self._drives is not None:
             self._drives.disturb()
+
+    def drive_limits(self):
+        """The drive effects applied (foos_sim.drive_limits.DriveLimits), or None on nominal drives."""
+        return None if self._shaper is None else self._shaper.limits
+
+    def drive_servo(self) -> Servo:
+        """The 16 velocity servos (JOINT_NAMES order): reflected inertia, gain and force limit."""
+        full = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, self.data, full)
+        actuators = self._all_ctrl
+        return Servo(inertia=full[self._joint_qvel, self._joint_qvel].copy(),
+                     gain=self.model.actuator_gainprm[actuators, 0].copy(),
+                     force_limit=self.model.actuator_forcerange[actuators, 1].copy() if self._drives is None
+                     else self._drives.limit[actuators].copy())
 
     def place_ball(self, position: Sequence[float], velocity: Sequence[float] = (0.0, 0.0), rolling: bool = True) -> None:
         """Put the ball somewhere with a velocity (a hand launch), leaving the rods as they are."""
@@ -220,10 +254,15 @@ class TableSimulation:
         return self._goal
 
     def _reference_steps(self, n: int) -> None:
-        model, data = self.model, self.data
+        model, data, shaper = self.model, self.data, self._shaper
         remaining = n
         while remaining > 0:
             chunk = min(remaining, REFERENCE_CHUNK_STEPS)
+            if shaper is not None and not shaper.idle and data.time >= shaper.next_update - 0.5 * self.timestep:
+                # The target ramps over the time since its last update, at most one ramp interval (an idle
+                # shaper's last update may be long ago).
+                data.ctrl[self._all_ctrl] = shaper.target(data.time, min(data.time - shaper.updated_at, RAMP_UPDATE))
+                shaper.schedule(data.time, RAMP_UPDATE)
             mujoco.mj_step(model, data, nstep=chunk)
             remaining -= chunk
             ncon = data.ncon
@@ -238,9 +277,12 @@ class TableSimulation:
 
     def _fast_steps(self, n: int) -> None:
         model, data, impacts, drives, dents = self.model, self.data, self._impacts, self._drives, self._dent_slopes
-        step1, step2, ball = mujoco.mj_step1, mujoco.mj_step2, self._ball_qpos
+        step1, step2, ball, shaper = mujoco.mj_step1, mujoco.mj_step2, self._ball_qpos, self._shaper
         impacts.update_gaps(data)  # the state may have been set since the last step (reset, place_ball)
         for i in range(n):
+            if shaper is not None and not shaper.idle:
+                data.ctrl[self._all_ctrl] = shaper.target(data.time, self.timestep)
+                drives.disturb()
             drives.update()
             if dents is not None:
                 data.xfrc_applied[self._ball_body, :2] = dents.force(*data.qpos[ball][:3].tolist())
@@ -314,6 +356,8 @@ class TableSimulation:
         """
         _ball_vectors(ball_position, ball_velocity, self.ball_radius)  # refuse bad input before resetting
         mujoco.mj_resetData(self.model, self.data)
+        if self._shaper is not None:
+            self._shaper.reset()
         self._time_owed = 0.0
         self._touching = [False, False]  # touching each team's figures at the last check
         self._touched_in_call = [False, False]
