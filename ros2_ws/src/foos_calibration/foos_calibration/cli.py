@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
+from foos_core.names import TEAMS, command_topic
 from foos_core.table_params import ParamsError
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -24,6 +25,9 @@ held-out data. Writes to DIR:
   report.md              the same in words, with the figures
   calibrated_table.yaml  the fitted table: load_model(path), or sim_node -p params_file:=path
   residual_map.png, deceleration_vs_speed.png, wall_bounces.png, tracks.png
+A game recording also has /joint_states and /home/rods/command, /away/rods/command: the rod drives are
+then identified first (rod_latency, rod_speed_limit, rod_acceleration_limit; report.json `rods`), and
+reported even when the ball side cannot be calibrated (report.json `ball_skipped` says why).
 """
 
 EPILOG = """\
@@ -60,17 +64,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         return fail("--max-starts must be at least 1")
     # Loaded only now, after the thread limits above, so that `--help` and a bad argument answer at once.
     try:
-        from foos_bag import BagError, read_ball_detections  # the bag reader and numpy: half a second
+        from foos_bag import BagError, read_ball_detections, topics  # the bag reader and numpy: half a second
     except ImportError as error:
         return fail(f"foos_bag is not importable ({error}); source scripts/env.sh")
+    from .game_data import read_game  # loaded with the pipeline, after the thread limits
     from .pipeline import DataError, Options, calibrate, plain_summary  # scipy, MuJoCo, matplotlib: seconds
+    from .rods import RodDataError  # likewise
 
     progress = (lambda message: None) if args.quiet else (lambda message: print(f"[calibrate] {message}", file=sys.stderr, flush=True))
     try:
-        detections = read_ball_detections(bag, args.topic)
-        report = calibrate(detections.t, detections.position, detections.frame_id, Path(args.out),
-                           Options(args.max_starts, args.seed, not args.no_figures, base=args.base), progress, str(bag))
-    except (BagError, DataError, ParamsError) as error:
+        # Everything is read and checked before anything is written. A bag with neither the ball nor the
+        # drives' commands is refused for the ball it lacks; one with commands but no ball (a drives-only
+        # recording) has its rods calibrated and the ball skipped.
+        present = topics(bag)
+        has_commands = any(command_topic(team) in present for team in TEAMS)
+        detections = read_ball_detections(bag, args.topic) if args.topic in present or not has_commands else None
+        encoders, drives = read_game(bag)  # a game's joint states and commands
+        report = calibrate(detections.t if detections else None, detections.position if detections else None,
+                           detections.frame_id if detections else "table", Path(args.out),
+                           Options(args.max_starts, args.seed, not args.no_figures, base=args.base), progress, str(bag),
+                           drives=drives, encoders=encoders)
+    except (BagError, DataError, ParamsError, RodDataError) as error:
         return fail(str(error).splitlines()[0])
     except OSError as error:
         return fail(f"{error.strerror or error}: {error.filename or ''}".strip())

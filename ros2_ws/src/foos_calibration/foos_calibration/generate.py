@@ -15,7 +15,7 @@ import argparse
 import json
 import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
@@ -26,63 +26,14 @@ from tqdm import tqdm
 from foos_bag import BagWriter, write_ball_detections
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
-from foos_sim.effects import EFFECT_NAMES, ROLLING_MASS_FACTOR, Dent, EffectError
+from foos_sim.effects import EFFECT_NAMES, MODEL_EFFECT_NAMES, EffectError
 from foos_sim.model_builder import ball_model_from_params
+
+from . import games
+from .hidden_forces import BallBody, HiddenEffects, ball_wrench, world_spin
 
 CONTROL_STEPS = 20  # physics steps between force updates (1 ms at 20 kHz)
 WALL_SLOW_ZONE = 0.01  # m from a wall where the loop steps one physics step at a time
-
-
-@dataclass
-class HiddenEffects:
-    """The generator's truth, in the contract's vocabulary (slopes, decelerations, rates...)."""
-
-    slope: tuple[float, float] = (0.0, 0.0)
-    rolling_deceleration: float | None = None  # None: the nominal one
-    viscous_rate: float = 0.0
-    drag_coefficient: float = 0.0
-    dents: list[Dent] = field(default_factory=list)
-    restitution: float | None = None  # all walls; None: nominal
-
-    @classmethod
-    def from_effects(cls, effects: Sequence[dict]) -> "HiddenEffects":
-        hidden = cls()
-        for effect in effects:
-            name, p = effect.get("name"), effect.get("params", {})
-            if name not in EFFECT_NAMES:
-                raise EffectError(f"unknown effect `{name}`")
-            try:
-                if name == "table_tilt":
-                    hidden.slope = (float(p["slope_x"]), float(p["slope_y"]))
-                elif name == "rolling_resistance":
-                    hidden.rolling_deceleration = float(p["deceleration"])
-                elif name == "viscous_damping":
-                    hidden.viscous_rate = float(p["rate"])
-                elif name == "air_drag":
-                    hidden.drag_coefficient = float(p["coefficient"])
-                elif name == "surface_dent":
-                    hidden.dents.append(Dent(float(p["x"]), float(p["y"]), float(p["radius"]), float(p["depth"])))
-                elif name == "wall_restitution":
-                    hidden.restitution = float(p["coefficient"])
-            except KeyError as missing:
-                raise EffectError(f"effect `{name}` needs the parameter {missing}") from None
-        return hidden
-
-
-def dent_gradient(dents: Sequence[Dent], x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Surface gradient (dh/dx, dh/dy) of cosine-bowl dents at points (x, y)."""
-    gx = np.zeros_like(np.asarray(x, dtype=float))
-    gy = np.zeros_like(gx)
-    for dent in dents:
-        dx, dy = x - dent.x, y - dent.y
-        d = np.hypot(dx, dy)
-        inside = (d < dent.radius) & (d > 1e-9)
-        # h = -depth/2 (1 + cos(pi d / R))  ->  dh/dd = depth/2 * pi/R * sin(pi d / R)
-        dh = np.where(inside, dent.depth * 0.5 * np.pi / dent.radius * np.sin(np.pi * np.minimum(d, dent.radius) / dent.radius), 0.0)
-        safe = np.where(d > 1e-9, d, 1.0)
-        gx = gx + dh * dx / safe
-        gy = gy + dh * dy / safe
-    return gx, gy
 
 
 def surrogate_theta(hidden: HiddenEffects, nominal_rolling: float = 0.15) -> np.ndarray:
@@ -109,6 +60,7 @@ class HiddenTable:
         self.radius, self.mass = geometry.ball_radius, float(ball["mass"])
         self.g = float(self.params["gravity"])
         self.nominal_rolling = float(ball["rolling_deceleration"])
+        self.ball = BallBody(self.mass, self.radius, self.g, self.nominal_rolling)
         self.nominal_restitution = float(self.params["walls"]["restitution"])
         self.half = np.array([geometry.half_width, geometry.half_length])
         self.ball_body = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "ball")
@@ -129,35 +81,9 @@ class HiddenTable:
         mujoco.mj_forward(self.model, self.data)
 
     def _wrench(self) -> np.ndarray:
-        """Force and torque (world frame) of the hidden effects on the ball.
-
-        Each acts the way its physical cause acts, so sliding after a bounce is right too:
-        slope, dent and air drag pull at the centre; rolling resistance is a torque against the
-        spin (as a deformed cloth resists the rolling); Stokes damping is a force on the centre and
-        a torque on the spin in Stokes' 6:8 proportion. For a rolling ball each gives the contract's
-        deceleration, e.g. a torque T slows it at T / (7/5 m r).
-        """
-        h, m, r = self.hidden, self.mass, self.radius
-        v = self.data.qvel[:2]
-        speed = math.hypot(v[0], v[1])
-        force = np.zeros(3)
-        torque = np.zeros(3)
-        force[:2] += m * self.g * np.asarray(h.slope)
-        if h.dents:
-            gx, gy = dent_gradient(h.dents, np.array([self.data.qpos[0]]), np.array([self.data.qpos[1]]))
-            force[:2] -= m * self.g * np.array([gx[0], gy[0]])
-        omega = np.zeros(3)
-        mujoco.mju_rotVecQuat(omega, self.data.qvel[3:6], self.data.qpos[3:7])  # free joint spin is local
-        spin = math.hypot(omega[0], omega[1])
-        if h.rolling_deceleration is not None and spin > 1e-6:
-            # Only the difference to the model's own rolling friction; faded out near rest so a
-            # weaker table does not push a resting ball.
-            fade = min(1.0, spin * r / 0.02)
-            torque[:2] -= ROLLING_MASS_FACTOR * m * r * (h.rolling_deceleration - self.nominal_rolling) * fade * omega[:2] / spin
-        force[:2] -= 0.6 * m * h.viscous_rate * v
-        torque[:2] -= 0.8 * m * r * r * h.viscous_rate * omega[:2]
-        force[:2] -= ROLLING_MASS_FACTOR * m * h.drag_coefficient * speed * v
-        return np.concatenate([force, torque])
+        """The hidden effects' force and torque on the ball now (hidden_forces.ball_wrench)."""
+        spin = world_spin(self.data.qpos[3:7], self.data.qvel[3:6])
+        return ball_wrench(self.hidden, self.ball, self.data.qpos[:3], self.data.qvel[:3], spin)
 
     def _wall_contact_normal(self) -> np.ndarray | None:
         for i in range(self.data.ncon):
@@ -328,19 +254,29 @@ def random_effect(name: str, rng: np.random.Generator, nominal_rolling: float = 
     raise EffectError(f"unknown effect `{name}`")
 
 
-def _parse_effect(text: str) -> dict:
-    """`name:key=value,key=value` -> effect dict."""
+SELECTOR_KEYS = ("team", "rod", "axis", "wall")  # effect parameters that are names, not numbers
+
+
+def parse_effect(text: str) -> dict:
+    """`name:key=value,key=value` -> effect dict (team, rod, axis and wall take names, the rest numbers)."""
     name, _, rest = text.partition(":")
     params = {}
     for item in filter(None, rest.split(",")):
         key, _, value = item.partition("=")
+        key = key.strip()
+        if key in SELECTOR_KEYS:
+            params[key] = value.strip()
+            continue
         try:
-            params[key.strip()] = float(value)
+            params[key] = float(value)
         except ValueError:
             raise argparse.ArgumentTypeError(f"effect parameter `{item}` is not key=number") from None
-    if name not in EFFECT_NAMES:
-        raise argparse.ArgumentTypeError(f"unknown effect `{name}` (known: {', '.join(EFFECT_NAMES)})")
+    if name not in MODEL_EFFECT_NAMES:
+        raise argparse.ArgumentTypeError(f"unknown effect `{name}` (known: {', '.join(MODEL_EFFECT_NAMES)})")
     return {"name": name, "params": params}
+
+
+_parse_effect = parse_effect  # the former name
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -353,11 +289,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         epilog=(
             "Examples:\n"
             "  ros2 run foos_calibration generate_measured out/tilt_bag --effect table_tilt:slope_x=0.005,slope_y=0\n"
-            "  ros2 run foos_calibration generate_measured out/rand_bag --random 2 --seed 7 --truth out/truth.json"),
+            "  ros2 run foos_calibration generate_measured out/rand_bag --random 2 --seed 7 --truth out/truth.json\n"
+            "  ros2 run foos_calibration generate_measured out/game --game --duration 90 --effect rod_latency:delay=0.03 \\\n"
+            "      --effect rod_speed_limit:slide=1.5,team=home,rod=attack"),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("bag", help="output bag directory (must not exist)")
-    parser.add_argument("--effect", action="append", type=_parse_effect, default=[],
+    parser.add_argument("--game", action="store_true",
+                        help="record a game instead (both teams' simple players, /joint_states and the commands too); "
+                             "it hides drive effects (rod_latency, rod_speed_limit, rod_acceleration_limit) and the table effects "
+                             "but wall_restitution")
+    games.add_arguments(parser)
+    parser.add_argument("--effect", action="append", type=parse_effect, default=[],
                         help="hidden effect NAME:key=value,... in the contract's vocabulary (repeatable)")
     parser.add_argument("--random", type=int, default=0, metavar="N",
                         help="hide N effects drawn at random (names and magnitudes) instead")
@@ -374,6 +317,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         if Path(args.bag).exists():
             raise ValueError(f"{args.bag} exists already; choose another name or delete it")
         effects = list(args.effect)
+        if args.game:
+            if args.random:
+                rng = np.random.default_rng(args.seed + 1_000_003)
+                names = rng.choice(games.DRIVE_EFFECTS, size=min(args.random, len(games.DRIVE_EFFECTS)), replace=False)
+                effects = [games.random_drive_effect(str(n), rng) for n in names]
+            game = games.generate_game(args.bag, effects, games.options_from(args))
+            if args.truth:
+                Path(args.truth).write_text(json.dumps({"effects": effects, "seed": args.seed}, indent=2))
+            print(games.describe(game, args.bag))
+            return 0
+        if any(e["name"] in games.DRIVE_EFFECTS for e in effects):  # a free roll has no drives to hide them in
+            raise ValueError("drive effects (rod_*) are hidden in games: add --game")
         if args.random:
             rng = np.random.default_rng(args.seed + 1_000_003)
             names = rng.choice([n for n in EFFECT_NAMES], size=min(args.random, len(EFFECT_NAMES)), replace=False)
@@ -383,7 +338,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         write_bag(recording, args.bag)
         if args.truth:
             Path(args.truth).write_text(json.dumps({"effects": effects, "seed": args.seed}, indent=2))
-    except (ValueError, KeyError, OSError) as error:
+    except (ValueError, KeyError, OSError, games.GameError) as error:
         print(f"generate_measured: {str(error).splitlines()[0] if str(error) else type(error).__name__}", file=sys.stderr)
         return 2
     except Exception as error:  # BagError and friends: one line, no traceback

@@ -15,11 +15,15 @@ from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
 from . import figures
+from . import rods as rod_drives
 from .bounces import fit_restitution, fold_restitution
 from .evaluate import HORIZONS, choose_starts, errors_of, estimate_states, predict, summary
+from .figure_contacts import JointTrack, for_game
+from .game_data import Encoders, drive_model
 from .mjsim import base_effect_names, effects_list, params_with, restitution_of, theta_of
 from .select import select_effects
 from .tracks import DataError, analyse, validate
+from .unexplained import FAR_ABOVE, FIGURE_FILE, find_unexplained, prediction_floor, unexplained_predictions
 
 PARAMS_FILE_NAME = "calibrated_table.yaml"
 MIN_SEGMENTS = 6
@@ -64,18 +68,75 @@ def describe(effect: dict, nominal_rolling: float, nominal_restitution: float) -
     return name
 
 
-def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path, options: Options = Options(),
-              progress: Callable[[str], None] = lambda message: None, bag: str = "") -> dict:
+def calibrate(t: np.ndarray | None, position: np.ndarray | None, frame_id: str, out_dir: Path, options: Options = Options(),
+              progress: Callable[[str], None] = lambda message: None, bag: str = "",
+              drives: "rod_drives.DriveData | None" = None, encoders: "Encoders | None" = None) -> dict:
+    """The ball (detections t, position) and, for a game, the rod drives (joint states and commands).
+
+    `encoders` (a game's /joint_states) pose the figures, whose contacts cut the ball's tracks; without
+    them, sudden velocity changes near a rod line do (figure_contacts).
+
+    The drives are calibrated first: a game bag whose ball side cannot be used (too little rolling data,
+    no detections) still gets its rods calibrated and reported, with the reason the ball was skipped."""
     started, cpu_started = time.monotonic(), time.process_time()
+    rods = None
+    if drives is not None:
+        rods = rod_drives.identify(drives, drive_model(load_params(options.base)), progress, options.seed)
+    if t is None:
+        if rods is None:
+            raise DataError("no ball detections and no drive data to calibrate")
+        return _rods_only(rods, "the bag has no ball detections", out_dir, options, bag, started, cpu_started)
+    try:
+        return _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods, encoders, started, cpu_started)
+    except DataError as error:
+        if rods is None:
+            raise
+        return _rods_only(rods, str(error).splitlines()[0], out_dir, options, bag, started, cpu_started)
+
+
+def _rods_only(rods, reason: str, out_dir: Path, options: Options, bag: str, started: float, cpu_started: float) -> dict:
+    """The report of a game whose ball side was skipped: the drive effects, their gain, and why."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    params_file = out_dir / PARAMS_FILE_NAME
+    base_ref = str(Path(options.base).resolve()) if options.base else "regulation_table"
+    base_effects = [e for e in load_params(options.base).get("effects", []) or []
+                    if e.get("name") not in rod_drives.EFFECT_OF.values()]
+    params_file.write_text("# Calibrated table written by `ros2 run foos_calibration calibrate` (rod drives only; the ball was "
+                           f"skipped: {reason}).\n" + yaml.safe_dump(
+                               {"base": base_ref, "effects": base_effects + _plain_effects(rods.effects)}, sort_keys=False))
+    load_params(params_file)
+    effects = [{**e, "description": rod_drives.describe(e)} for e in rods.effects]
+    report = {"effects": effects, "baseline": {"median_error_mm_1s": None}, "calibrated": {"median_error_mm_1s": None},
+              "params_file": str(params_file.resolve()), "ball_skipped": reason, "rods": rods.block,
+              "unexplained": [],  # the ball was not judged: `ball_skipped` says why, and the summary says so
+              "data": {"bag": bag}, "runtime_s": round(time.monotonic() - started, 1),
+              "cpu_s": round(time.process_time() - cpu_started, 1)}
+    (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_plain))
+    (out_dir / "report.md").write_text(f"# Calibration report\n\nThe ball was not calibrated: {reason}.\n"
+                                       + rod_drives.markdown(rods.block, rods.effects))
+    return report
+
+
+def _plain_effects(effects: list[dict]) -> list[dict]:
+    """Effects as a parameter file holds them: name and params only."""
+    return [{"name": e["name"], "params": dict(e["params"])} for e in effects]
+
+
+def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods, encoders, started, cpu_started) -> dict:
     params = load_params(options.base)
+    # The drives are calibrated apart: the ball side starts from the base table without its drive effects, which
+    # the calibrated file keeps unless the game's drives replaced them.
+    base_drive_effects = [e for e in params.get("effects", []) or [] if e.get("name") in rod_drives.EFFECT_OF.values()]
+    params = {**params, "effects": [e for e in params.get("effects", []) or [] if e not in base_drive_effects]}
     theta_base = theta_of(params)
     nominal_rolling = float(theta_base[2])
     nominal_e = restitution_of(params)
     kept = base_effect_names(params)  # effects the base table already has
     geometry = TableGeometry.from_params(params)
     t, xy = validate(t, position, frame_id)
-    progress("finding tracks, wall contacts and rolling segments")
-    measured = analyse(t, xy, geometry)
+    progress("finding tracks, wall and figure contacts, and rolling segments")
+    joints = JointTrack(encoders.t, encoders.position) if encoders is not None else None
+    measured = analyse(t, xy, geometry, figures=for_game(params, joints))
     if len(measured.segments) < MIN_SEGMENTS:
         raise DataError(f"too little rolling data: {len(measured.segments)} rolling segments of at least 0.25 s "
                         f"(need {MIN_SEGMENTS}); record more rolls")
@@ -95,7 +156,8 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
               f"# measured data supports ({bag or 'detections'}). Load with foos_sim.load_model(this file) or\n"
               "# `ros2 run foos_sim sim_node --ros-args -p params_file:=<this file>`.\n")
     base_ref = str(Path(options.base).resolve()) if options.base else "regulation_table"
-    params_file.write_text(header + yaml.safe_dump({"base": base_ref, "effects": table_effects}, sort_keys=False))
+    rod_effects = _plain_effects(rods.effects) if rods is not None else base_drive_effects
+    params_file.write_text(header + yaml.safe_dump({"base": base_ref, "effects": table_effects + rod_effects}, sort_keys=False))
     load_params(params_file)  # the file must be loadable; raises if not
 
     progress("measuring the gain on held-out starts (MuJoCo rollouts)")
@@ -128,15 +190,32 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
     for block, n in ((baseline, len(starts)), (calibrated, len(starts))):
         block["starts"] = n
 
+    # What the final model (the calibrated one, else the nominal) still leaves: never claim what the residuals deny.
+    progress("looking for what the model still misses")
+    final_label = "calibrated" if effects else "nominal"
+    unexplained = find_unexplained(measured.segments, selection.fit, measured.noise, geometry,
+                                   out_dir / FIGURE_FILE if options.figures else None)
+    noise_floor = None
+    if predictions:
+        floor_by_horizon = prediction_floor(starts, models[final_label][1], measured.noise, options.seed)
+        noise_floor = {f"median_error_mm_{h:g}s".replace("0.", "0_"): round(float(v) * 1000, 2)
+                       for h, v in zip(HORIZONS, floor_by_horizon)}
+        unexplained = unexplained_predictions(predictions.errors[final_label], floor_by_horizon, measured.noise,
+                                              final_label) + unexplained
+
     report_effects = []
     for effect in effects:
         evidence = (restitution.evidence if effect["name"] == "wall_restitution" else selection.evidence.get(effect["name"], {}))
         report_effects.append({**effect, "evidence": evidence, "description": describe(effect, nominal_rolling, nominal_e)})
+    if rods is not None:
+        report_effects += [{**e, "description": rod_drives.describe(e)} for e in rods.effects]
     report = {
         "effects": report_effects,
         "baseline": baseline,
         "calibrated": calibrated,
         "params_file": str(params_file.resolve()),
+        "unexplained": unexplained,
+        "noise_floor": noise_floor,
         "rejected": {**selection.rejected, **({} if restitution.coefficient is not None else {"wall_restitution": restitution.evidence})},
         "data": {
             "bag": bag, "detections": int(len(t)), "duration_s": round(float(t[-1] - t[0]), 2),
@@ -150,6 +229,10 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
             "segments": "rolling segments, and the slide after each wall bounce with its slip fitted per segment",
             "horizons_s": list(HORIZONS),
             "calibrated_predictions": "cross-fitted: each start predicted by the model fitted on the other fold of segments",
+            "unexplained": f"a place (all the rolling data, a cell of the field, a speed band, the first 0.3 s after a wall bounce or a "
+                           f"figure contact) whose residual RMS per axis is over {FAR_ABOVE:g} x the detection noise, or held-out "
+                           f"predictions 1 s ahead over {FAR_ABOVE:g} x the noise floor (the error a right model makes from the "
+                           f"detection noise alone, `noise_floor`)",
         },
     }
     if options.figures:
@@ -160,6 +243,8 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
         if predictions:
             figures.tracks_overlay(measured, geometry, predictions, out_dir / "tracks.png")
         report["figures"] = [p.name for p in sorted(out_dir.glob("*.png"))]
+    if rods is not None:
+        report["rods"] = rods.block
     if floor is not None:
         report["floor"] = floor
     report["runtime_s"] = round(time.monotonic() - started, 1)
@@ -168,7 +253,8 @@ def calibrate(t: np.ndarray, position: np.ndarray, frame_id: str, out_dir: Path,
     # load too (one trial 39 -> 67 s).
     report["cpu_s"] = round(time.process_time() - cpu_started, 1)
     (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_plain))
-    (out_dir / "report.md").write_text(markdown(report, nominal_rolling, nominal_e))
+    rods_section = rod_drives.markdown(rods.block, rods.effects) if rods is not None else ""
+    (out_dir / "report.md").write_text(markdown(report, nominal_rolling, nominal_e) + rods_section)
     return report
 
 
@@ -183,12 +269,24 @@ def _plain(value):
 
 def plain_summary(report: dict) -> str:
     lines = []
+    unexplained = report.get("unexplained") or []
     if report["effects"]:
         lines.append(f"The nominal simulation gets this table wrong in {len(report['effects'])} way(s):")
         for e in report["effects"]:
             lines.append(f"  - {e['name']}: {e['description']}")
+    elif unexplained:
+        lines.append("No effect of the vocabulary is supported by held-out evidence, and the nominal simulation does NOT "
+                     "explain the data:")
     else:
-        lines.append("The nominal simulation already explains the data: no effect is supported by held-out evidence.")
+        lines.append(f"The nominal simulation explains the data: no effect is supported by held-out evidence, and its residuals "
+                     f"are within {FAR_ABOVE:g}x the noise everywhere they were judged.")
+    if unexplained:
+        if report["effects"]:
+            lines.append(f"The calibrated model still misses by far more than the noise in {len(unexplained)} place(s):")
+        for u in unexplained[:6]:
+            lines.append(f"  ! {u['where']}: {u['residual_mm']:.1f} mm against {u['noise_mm']:.1f} mm ({u['ratio']:.1f}x)")
+        if len(unexplained) > 6:
+            lines.append(f"  ! and {len(unexplained) - 6} more (report.json `unexplained`)")
     b, c = report["baseline"], report["calibrated"]
 
     def fmt(block, key):
@@ -202,6 +300,16 @@ def plain_summary(report: dict) -> str:
         if b.get(f"median_error_mm_{key}") and c.get(f"median_error_mm_{key}"):
             ratio = f"  ({b[f'median_error_mm_{key}'] / c[f'median_error_mm_{key}']:.1f}x better)" if report["effects"] else ""
         lines.append(f"  {label:>6} ahead: {fmt(b, key)} -> {fmt(c, key)}{ratio}")
+    rods = report.get("rods")
+    if rods:
+        b, c = rods.get("baseline", {}), rods.get("calibrated", {})
+        for axis, unit, label in (("slide", "mm", "slides"), ("rotate", "deg", "rotations")):
+            key = f"{axis}_median_error_{unit}_0_25s"
+            if b.get(key) is not None and c.get(key) is not None:
+                lines.append(f"Rod drives, {label}: joint-position error 0.25 s ahead {b[key]:.2f} -> {c[key]:.2f} {unit} "
+                             f"(held-out, {c.get('starts', '?')} starts)")
+    if report.get("ball_skipped"):
+        lines.append(f"The ball was NOT calibrated: {report['ball_skipped']}")
     lines.append(f"Calibrated model: {report['params_file']}")
     return "\n".join(lines)
 
@@ -212,11 +320,20 @@ def markdown(report: dict, nominal_rolling: float, nominal_e: float) -> str:
            f"Data: {d['detections']} detections over {d['duration_s']} s, {d['tracks']} tracks, "
            f"{d['rolling_segments']} rolling segments, {d['bounces_used']} bounces used, noise {d['noise_mm']} mm.", "",
            "## What the simulation gets wrong, and why", ""]
+    unexplained = report.get("unexplained") or []
     if report["effects"]:
         out += [f"- **{e['name']}**: {e['description']} (held-out evidence: "
                 f"{e['evidence'].get('held_out_error_drop_noise_variances', 'n/a')} noise variances)" for e in report["effects"]]
+    elif unexplained:
+        out.append("No candidate earned held-out evidence, but the nominal model does **not** explain the data (below).")
     else:
-        out.append("Nothing: the nominal model explains the data (no candidate earned held-out evidence).")
+        out.append("Nothing: the nominal model explains the data (no candidate earned held-out evidence, and the residuals are "
+                   f"within {FAR_ABOVE:g}x the noise everywhere they were judged).")
+    if unexplained:
+        out += ["", "## Where the model still misses by far more than the noise", "",
+                "| where | residual (mm) | noise (mm) | ratio |", "|---|---|---|---|"]
+        out += [f"| {u['where']} | {u['residual_mm']} | {u['noise_mm']} | {u['ratio']} |" for u in unexplained]
+        out += ["", f"![unexplained]({FIGURE_FILE})" if report.get("figures") else ""]
     if report.get("rejected"):
         out += ["", "Candidates tried and not named:", ""]
         out += [f"- {k}: {v}" for k, v in report["rejected"].items()]

@@ -26,6 +26,7 @@ MIN_DETECTIONS = 200
 OUTLIER_WINDOW = 0.5  # s: a cubic in t follows a rolling ball to well under the noise over this long
 OUTLIER_SIGMAS = 4.0
 OUTLIER_FLOOR = 0.003  # m: a detection off its neighbours' smooth path by more than this (and 4 sigma) is dropped
+FIGURE_HOLD = 0.1  # s: a figure contact longer than this held the ball (its spin is not the one it came with)
 
 
 class DataError(ValueError):
@@ -58,6 +59,7 @@ class Flight:
     before_bounce: bool
     bounce_wall_in: str | None = None  # the wall of the bounce that starts this flight
     v_in: np.ndarray | None = None  # velocity before that bounce (linear fit)
+    after_figure: bool = False  # starts where a figure let go of the ball (v_in: the velocity before the touch)
 
 
 @dataclass
@@ -125,6 +127,26 @@ def _window_velocity(t: np.ndarray, xy: np.ndarray) -> np.ndarray:
     return np.einsum("nw,nwk->nk", tc, xc) / np.maximum(np.sum(tc**2, axis=1), 1e-12)[:, None]
 
 
+def velocity_change(t: np.ndarray, xy: np.ndarray, window: int = 6) -> tuple[np.ndarray, np.ndarray, float]:
+    """Per frame (n,): how much the velocity of the `window` frames after it differs from that of the
+    `window` frames before it, and the speed after it (zeros for a track shorter than 2 windows); and the
+    change the detection noise alone gives (m/s, the standard deviation of one component)."""
+    n = len(t)
+    change, speed = np.zeros(n), np.zeros(n)
+    if n < 2 * window:
+        return change, speed, 0.0
+    tw, pw = windows(t, window), windows(xy, window, axis=0).transpose(0, 2, 1)
+    v = _window_velocity(tw, pw)  # velocity of frames i .. i+window-1
+    # frame i: before = window ending at i, after = window starting at i
+    change[window - 1: n - window + 1] = np.linalg.norm(v[window - 1:] - v[: n - 2 * window + 2], axis=1)
+    speed[: len(v)] = np.linalg.norm(v, axis=1)
+    speed[len(v):] = speed[len(v) - 1]
+    second = xy[2:] - 2 * xy[1:-1] + xy[:-2]  # dominated by the noise: sqrt(6) sigma
+    sigma = 1.4826 * float(np.median(np.abs(second))) / np.sqrt(6)
+    spread = float(np.median(np.sum((tw - tw.mean(axis=1, keepdims=True)) ** 2, axis=1)))
+    return change, speed, float(np.sqrt(2.0) * sigma / np.sqrt(max(spread, 1e-12)))
+
+
 def contact_frames(geometry: TableGeometry, t: np.ndarray, xy: np.ndarray, window: int = 6) -> np.ndarray:
     """Frames at or around a wall contact.
 
@@ -136,14 +158,7 @@ def contact_frames(geometry: TableGeometry, t: np.ndarray, xy: np.ndarray, windo
     near = distance < WALL_ZONE
     n = len(t)
     if n >= 2 * window:
-        tw, pw = windows(t, window), windows(xy, window, axis=0).transpose(0, 2, 1)
-        v = _window_velocity(tw, pw)  # velocity of frames i .. i+window-1
-        change = np.zeros(n)
-        # frame i: before = window ending at i, after = window starting at i
-        change[window - 1: n - window + 1] = np.linalg.norm(v[window - 1:] - v[: n - 2 * window + 2], axis=1)
-        speed = np.zeros(n)
-        speed[: len(v)] = np.linalg.norm(v, axis=1)
-        speed[len(v):] = speed[len(v) - 1]
+        change, speed, _noise = velocity_change(t, xy, window)
         reach = 0.01 + 1.5 * speed * np.median(np.diff(t))
         near |= (change > 0.25) & (distance < reach)
         # The first and last frames of a track have no window on one side to compare with: a ball
@@ -265,11 +280,34 @@ def slip_after_bounce(wall: str, v_in: np.ndarray | None, v_out: np.ndarray) -> 
     return -(1.0 + NOMINAL_RESTITUTION) * incoming_normal_speed(wall, v_in, v_out) * np.array(WALL_INTO[wall])
 
 
+def slip_after_figure(flight: Flight) -> tuple[np.ndarray | None, float]:
+    """First guess of the slip after a figure let go of the ball, or None after a kick too hard to slide on
+    (see the fast wall bounce below); and when the ball surely rolls again.
+
+    The figure changed the velocity but not (much) the spin, which still matches the velocity before: the
+    contact point slips at v_out - v_in. Without a velocity before (the figure held the ball, or the flight
+    before was too short), assume no spin: slip = v_out. Sliding friction removes a slip u in |u| / (7/2 mu g),
+    0.1 s per m/s; the margin covers an unknown spin of up to 1 m/s of rolling speed.
+    """
+    v_out = _linear_velocity(flight.t[:8], flight.xy[:8])
+    slip = v_out - flight.v_in if flight.v_in is not None else v_out
+    bound = float(np.linalg.norm(slip)) + (0.0 if flight.v_in is not None else 1.0)
+    rolls_from = flight.t[0] + 0.05 + 0.16 * bound
+    if np.linalg.norm(slip) > (1.0 + NOMINAL_RESTITUTION) * SLIDE_MAX_NORMAL_SPEED:
+        return None, rolls_from
+    return slip, rolls_from
+
+
 def rolling_segments(flight: Flight, index: int) -> list[Segment]:
     t, xy = flight.t, flight.xy
     rolls_from = -np.inf
     slip = None
-    if flight.after_bounce and len(t) >= 8:
+    if flight.after_figure and len(t) >= 8:
+        slip, rolls_from = slip_after_figure(flight)
+        if slip is None:  # a hard kick: the ball may hop; the fit starts where it surely rolls
+            keep = t >= rolls_from
+            t, xy = t[keep], xy[keep]
+    elif flight.after_bounce and len(t) >= 8:
         # Incoming normal speed from before the bounce; where that flight is too short to tell,
         # from the outgoing speed and the lowest restitution a table could have.
         normal = normal_speed(flight.bounce_wall_in, flight.v_in) if flight.v_in is not None else 0.0
@@ -329,13 +367,45 @@ class Measured:
     noise: float  # m, detection noise estimated from second differences
 
 
-def analyse(t: np.ndarray, xy: np.ndarray, geometry: TableGeometry) -> Measured:
+def cut_at_figures(t: np.ndarray, xy: np.ndarray, figures) -> list[tuple[np.ndarray, np.ndarray, bool, np.ndarray | None, bool]]:
+    """A track's stretches between figure contacts: (t, xy, starts after a figure contact, the velocity before
+    that contact where the touch was brief, ends at a figure contact). The contact frames themselves, and
+    every frame while a figure holds the ball, are left out."""
+    touched = figures.contact_frames(t, xy)
+    pieces = []
+    bounds = np.flatnonzero(np.diff(np.concatenate([[1], touched.astype(int), [1]])))  # free runs: [a, b)
+    for a, b in zip(bounds[0::2], bounds[1::2]):
+        v_in = None
+        if a > 0:
+            hold_start = a - 1
+            while hold_start > 0 and touched[hold_start - 1]:
+                hold_start -= 1
+            before = slice(max(0, hold_start - 12), hold_start)
+            if hold_start >= 6 and t[a - 1] - t[hold_start] <= FIGURE_HOLD:
+                v_in = _linear_velocity(t[before], xy[before])
+        if b - a >= 10:
+            pieces.append((t[a:b], xy[a:b], a > 0, v_in, b < len(t)))
+    return pieces
+
+
+def analyse(t: np.ndarray, xy: np.ndarray, geometry: TableGeometry, figures=None) -> Measured:
+    """Tracks, flights, rolling segments and wall bounces. `figures` (figure_contacts.for_game) also cuts the
+    tracks at figure contacts: each stretch between them is a track of its own, so no flight, bounce window
+    or prediction runs through a figure. None: only walls (free rolls with the rods lifted)."""
     tracks = split_tracks(t, xy)
+    pieces = [(tt, pp, False, None, False) for tt, pp in tracks]
+    if figures is not None:
+        pieces = [piece for tt, pp in tracks for piece in cut_at_figures(tt, pp, figures)]
+        tracks = [(tt, pp) for tt, pp, *_ in pieces]
     flights: list[Flight] = []
     segments: list[Segment] = []
     bounces: list[Bounce] = []
-    for k, (tt, pp) in enumerate(tracks):
+    for k, (tt, pp, after_figure, v_in, before_figure) in enumerate(pieces):
         fl, contacts = flights_of_track(geometry, k, tt, pp)
+        if fl and after_figure and not fl[0].after_bounce and fl[0].t[0] == tt[0]:
+            fl[0].after_figure, fl[0].v_in = True, v_in
+        if fl and before_figure:
+            fl[-1].before_bounce = True
         base = len(flights)
         flights += fl
         for f_index, flight in enumerate(fl):

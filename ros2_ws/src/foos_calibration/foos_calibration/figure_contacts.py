@@ -1,0 +1,288 @@
+"""Ball-figure contacts in a game: where the figures were at each detection, and which frames a figure touched.
+
+tracks.analyse cuts a ball track into flights at the frames a `contact_frames(t, xy)` object marks, as it
+does at walls. Two such objects:
+
+- `PosedFigures` (a bag with /joint_states): every figure is placed by the MuJoCo model's own geometry posed
+  at each detection's time (joint positions interpolated between encoder stamps). Each rod is a body with
+  two joints along +x through its axis (slide, then rotate), so a figure geom's pose is its pose at the
+  zero pose moved by the slide and turned by the angle; the constructor checks that rule against
+  mj_kinematics at random poses, so the model stays the one place the geometry lives. A frame is a contact
+  frame when the ball (a sphere resting on the field) is within FIGURE_ZONE of a figure at the frame or
+  anywhere along the way to its neighbours (figures and ball interpolated between frames: a kicking foot
+  moves up to 3 m/s, 25 mm a frame), or within reach of one with its velocity changing as only a touch
+  changes it. While a figure holds or pins the ball every frame is a contact frame, so it is left out.
+- `RodLines` (no joint states): contact events come from velocity changes within a figure's reach of a rod
+  line (the rods' y from the parameter file, the reach from the model's figures at every angle). The
+  threshold is far above what the detection noise makes, so free rolls with no figure in play are cut
+  nowhere and keep their results exactly.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import mujoco
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view as windows
+
+from foos_core.joints import MissingJointsError, joint_order, take_joints
+from foos_core.names import AXES, JOINT_NAMES, RODS, TEAMS, figure_geom_name, joint_name
+from foos_core.table_geometry import TableGeometry
+from foos_sim.model_builder import model_from_params
+
+from .tracks import DataError, contact_frames, velocity_change
+
+FIGURE_ZONE = 0.005  # m: ball surface this close to a figure's (noise ~1.5 mm, encoder interpolation) is a touch
+CHANGE_WITH_JOINTS = 0.25  # m/s between the 6-frame windows either side (as at walls)
+WALL_OR_FIGURE = 0.015  # m: a velocity change by a wall contact is also a figure's when a figure is this close
+SWEEP_STEP = 0.004  # m: figures and ball are sampled between frames at least this finely
+MAX_SWEEP_SAMPLES = 24
+JOINT_COVER = 0.05  # s: a detection further than this from the encoder samples either side is not placed
+ROD_CHANGE_NOISE_SIGMAS = 8.0  # without joint states: the change must be this many times its noise...
+ROD_CHANGE_FLOOR = 0.35  # m/s ...and at least this (a slide after a wall bounce changes ~0.15 m/s a window)
+WINDOW = 6  # frames each side of the velocity-change test, as tracks.contact_frames
+PEAK_HALF_WIDTH = 3  # frames either side of a velocity-change peak left out without joint states
+
+
+def _rotation_x(angle: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) rotations about +x."""
+    c, s = np.cos(angle), np.sin(angle)
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    return np.stack([np.stack([one, zero, zero], -1), np.stack([zero, c, -s], -1), np.stack([zero, s, c], -1)], -2)
+
+
+@dataclass(frozen=True)
+class _Geoms:
+    """Every figure geom (boxes), at the zero pose, with the columns of its rod's slide and rotate joints."""
+
+    names: tuple[str, ...]
+    axis_origin: np.ndarray  # (G, 3) the rod axis point the geom turns about
+    offset: np.ndarray  # (G, 3) geom centre - axis_origin at the zero pose
+    mat: np.ndarray  # (G, 3, 3) geom frame at the zero pose
+    half: np.ndarray  # (G, 3) box half sizes
+    slide: np.ndarray  # (G,) column in JOINT_NAMES
+    rotate: np.ndarray  # (G,)
+    rod: np.ndarray  # (G,) index of the rod (team, rod) in ROD_KEYS
+
+
+ROD_KEYS = tuple((team, rod) for team in TEAMS for rod in RODS)
+
+
+def _figure_geoms(model: mujoco.MjModel, params: dict) -> _Geoms:
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    names, origin, offset, mats, half, slide, rotate, rod_index = [], [], [], [], [], [], [], []
+    for r, (team, rod) in enumerate(ROD_KEYS):
+        joints = [model.joint(joint_name(team, rod, axis)) for axis in AXES]
+        for joint in joints:
+            if not (np.allclose(joint.axis, (1, 0, 0)) and np.allclose(joint.pos, 0)):
+                raise ValueError(f"joint {joint.name} is not along +x through its rod's axis: the figure poses assume it")
+        body = int(joints[0].bodyid[0])
+        for i in range(int(params["rods"]["layout"][f"{team}_{rod}"]["figures"])):
+            for part in ("body", "foot"):
+                geom = model.geom(figure_geom_name(team, rod, i, part))
+                if geom.type[0] != mujoco.mjtGeom.mjGEOM_BOX:
+                    raise ValueError(f"figure geom {geom.name} is not a box")
+                names.append(geom.name)
+                origin.append(data.xpos[body].copy())
+                offset.append(data.geom_xpos[geom.id] - data.xpos[body])
+                mats.append(data.geom_xmat[geom.id].reshape(3, 3).copy())
+                half.append(geom.size.copy())
+                slide.append(JOINT_NAMES.index(joint_name(team, rod, "slide")))
+                rotate.append(JOINT_NAMES.index(joint_name(team, rod, "rotate")))
+                rod_index.append(r)
+    return _Geoms(tuple(names), np.array(origin), np.array(offset), np.array(mats), np.array(half),
+                  np.array(slide), np.array(rotate), np.array(rod_index))
+
+
+class FigureModel:
+    """The figures of a table (its parameter file) as the MuJoCo model builds them, posable by joint positions."""
+
+    def __init__(self, params: dict):
+        self.model = model_from_params(params, "reference")
+        self.geoms = _figure_geoms(self.model, params)
+        self.ball_radius = float(params["ball"]["radius"])
+        self.rod_y = np.array([float(params["rods"]["layout"][f"{team}_{rod}"]["y"]) for team, rod in ROD_KEYS])
+        self._check_against_mujoco()
+
+    def poses(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Centres (n, G, 3) and frames (n, G, 3, 3) of every figure geom at joint positions q (n, 16)."""
+        g = self.geoms
+        turn = _rotation_x(q[:, g.rotate])  # (n, G, 3, 3)
+        centre = g.axis_origin[None] + np.einsum("ngij,gj->ngi", turn, g.offset)
+        centre[..., 0] += q[:, g.slide]
+        return centre, np.einsum("ngij,gjk->ngik", turn, g.mat)
+
+    def distance(self, xy: np.ndarray, q: np.ndarray, geoms: np.ndarray | None = None) -> np.ndarray:
+        """(n,) gap between the ball (centre at xy, resting on the field) and the nearest figure (of `geoms`,
+        a mask; all by default); <= 0 touching."""
+        centre, mat = self.poses(q)
+        half = self.geoms.half
+        if geoms is not None:
+            centre, mat, half = centre[:, geoms], mat[:, geoms], half[geoms]
+        ball = np.concatenate([xy, np.full((len(xy), 1), self.ball_radius)], axis=1)
+        local = np.einsum("ngji,ngj->ngi", mat, ball[:, None, :] - centre)  # ball centre in each box's frame
+        outside = np.abs(local) - half[None]
+        gap = np.linalg.norm(np.maximum(outside, 0.0), axis=-1) + np.minimum(outside.max(axis=-1), 0.0)
+        return gap.min(axis=1) - self.ball_radius
+
+    def _check_against_mujoco(self) -> None:
+        data = mujoco.MjData(self.model)
+        rng = np.random.default_rng(0)
+        q = np.stack([rng.uniform(-0.1, 0.1, 16), rng.uniform(-np.pi, np.pi, 16)], axis=1)
+        q = np.where(np.array(["slide" in n for n in JOINT_NAMES]), q[:, 0], q[:, 1])
+        for name, value in zip(JOINT_NAMES, q):
+            data.qpos[self.model.joint(name).qposadr[0]] = value
+        mujoco.mj_kinematics(self.model, data)
+        centre, mat = self.poses(q[None])
+        ids = [self.model.geom(n).id for n in self.geoms.names]
+        if not (np.allclose(centre[0], data.geom_xpos[ids], atol=1e-9)
+                and np.allclose(mat[0], data.geom_xmat[ids].reshape(-1, 3, 3), atol=1e-9)):
+            raise ValueError("the figure poses no longer follow the model's kinematics (rod joints changed?)")
+
+    @property
+    def reach_y(self) -> float:
+        """m: the farthest in y from its rod's axis that a figure can touch a ball on the field, at any angle."""
+        return _reach_y(self)
+
+
+@lru_cache(maxsize=4)
+def _reach_y(figures: FigureModel) -> float:
+    g = figures.geoms
+    r0 = int(np.flatnonzero(g.rod == 0)[0])  # one rod's figure: all figures are alike
+    own = g.rod == 0
+    angles = np.radians(np.arange(0.0, 360.0, 1.0))
+    q = np.zeros((len(angles), 16))
+    q[:, g.rotate[r0]] = angles
+    dy = np.arange(0.0, 0.15, 0.0005)
+    x0 = figures.poses(q[:1])[0][0, r0, 0]
+    best = 0.0
+    for d in dy:
+        xy = np.tile([x0, figures.rod_y[0] + d], (len(angles), 1))
+        if np.any(figures.distance(xy, q, own) <= 0) or np.any(figures.distance(xy - [0, 2 * d], q, own) <= 0):
+            best = d
+    return float(best)
+
+
+@dataclass
+class JointTrack:
+    """Encoder samples: stamps (n,) and the 16 joint positions (n, 16) in JOINT_NAMES order."""
+
+    t: np.ndarray
+    q: np.ndarray
+
+    @classmethod
+    def from_joint_states(cls, t: np.ndarray, names, position: np.ndarray) -> "JointTrack":
+        """From /joint_states as read by foos_bag.read_joint_states; DataError on what calibration cannot use."""
+        try:
+            order = joint_order(list(names))
+        except MissingJointsError as error:
+            raise DataError(f"/joint_states lacks the contract's joints ({error}); expected names like {JOINT_NAMES[0]}") from None
+        t = np.asarray(t, dtype=float)
+        q = take_joints(np.asarray(position, dtype=float), order)
+        if len(t) < 2:
+            raise DataError(f"/joint_states has {len(t)} message(s); need a stream of encoder samples")
+        if not np.all(np.isfinite(t)):
+            raise DataError("/joint_states stamps contain NaN or infinite values")
+        if np.any(np.diff(t) < 0):
+            raise DataError("/joint_states stamps go backwards")
+        if not np.all(np.isfinite(q)):
+            raise DataError("/joint_states positions contain NaN or infinite values (a joint missing from some messages?)")
+        keep = np.concatenate([[True], np.diff(t) > 1e-9])
+        return cls(t[keep], q[keep])
+
+    def at(self, times: np.ndarray) -> np.ndarray:
+        """(n, 16) joint positions interpolated at `times` (held at the ends)."""
+        return np.stack([np.interp(times, self.t, self.q[:, j]) for j in range(self.q.shape[1])], axis=1)
+
+    def covered(self, times: np.ndarray) -> np.ndarray:
+        """(n,) whether an encoder sample lies within JOINT_COVER on both sides of each time."""
+        i = np.searchsorted(self.t, times)
+        after = np.where(i < len(self.t), self.t[np.minimum(i, len(self.t) - 1)] - times, np.inf)
+        before = np.where(i > 0, times - self.t[np.maximum(i - 1, 0)], np.inf)
+        exact = (i < len(self.t)) & (after == 0)
+        return exact | ((after <= JOINT_COVER) & (before <= JOINT_COVER))
+
+
+class RodLines:
+    """Contact frames without joint states: sudden velocity changes within a figure's reach of a rod line.
+
+    A change is judged at its peak (the frame whose windows straddle the touch); a peak within a window of a
+    wall contact frame (tracks.contact_frames) is the wall's.
+    """
+
+    def __init__(self, figures: FigureModel, geometry: TableGeometry):
+        self.rod_y = figures.rod_y
+        self.reach = figures.reach_y + FIGURE_ZONE
+        self.geometry = geometry
+
+    def near_rod(self, xy: np.ndarray) -> np.ndarray:
+        return np.min(np.abs(xy[:, 1:2] - self.rod_y[None]), axis=1) < self.reach
+
+    def contact_frames(self, t: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        n = len(t)
+        change, _speed, noise = velocity_change(t, xy, WINDOW)
+        threshold = max(ROD_CHANGE_FLOOR, ROD_CHANGE_NOISE_SIGMAS * noise)
+        if n < 2 * WINDOW or not np.any(change > threshold):
+            return np.zeros(n, dtype=bool)
+        padded = np.concatenate([np.zeros(WINDOW), change, np.zeros(WINDOW)])
+        peak = change >= windows(padded, 2 * WINDOW + 1).max(axis=1)
+        # A change whose windows reach a wall contact is the wall's: without the figures' poses nothing says otherwise.
+        wall = np.convolve(contact_frames(self.geometry, t, xy, WINDOW), np.ones(2 * WINDOW + 1), mode="same") > 0
+        event = peak & (change > threshold) & self.near_rod(xy) & ~wall
+        # The frames around the touch: those whose velocity windows both saw it.
+        return np.convolve(event, np.ones(2 * PEAK_HALF_WIDTH + 1), mode="same") > 0
+
+
+class PosedFigures:
+    """Contact frames from the figures posed by the joint states (RodLines where the encoders have a gap)."""
+
+    def __init__(self, figures: FigureModel, joints: JointTrack, geometry: TableGeometry):
+        self.figures, self.joints, self.geometry = figures, joints, geometry
+        self.fallback = RodLines(figures, geometry)
+
+    def gaps(self, t: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(n,) gap to the nearest figure at each frame, and (n - 1,) the least gap between consecutive frames
+        (ball and figures interpolated; samples at least every SWEEP_STEP of figure or ball motion)."""
+        n = len(t)
+        q = self.joints.at(t)
+        at_frames = self.figures.distance(xy, q)
+        if n < 2:
+            return at_frames, np.zeros(0)
+        reach = 0.09  # m: a figure's farthest surface from its rod axis (the sweep's step size only)
+        motion = np.max(np.abs(np.diff(q[:, 0::2], axis=0)) + reach * np.abs(np.diff(q[:, 1::2], axis=0)), axis=1)
+        motion += np.linalg.norm(np.diff(xy, axis=0), axis=1)
+        samples = np.clip(np.ceil(motion / SWEEP_STEP).astype(int), 1, MAX_SWEEP_SAMPLES)
+        interval = np.repeat(np.arange(n - 1), samples)
+        first = np.concatenate([[0], np.cumsum(samples)[:-1]])
+        fraction = (np.arange(len(interval)) - first[interval] + 1) / samples[interval]  # (0, 1]: ends at the next frame
+        ts = t[interval] + fraction * (t[interval + 1] - t[interval])
+        xys = xy[interval] + fraction[:, None] * (xy[interval + 1] - xy[interval])
+        d = self.figures.distance(xys, self.joints.at(ts))
+        between = np.minimum(np.minimum.reduceat(d, first), at_frames[:-1])
+        return at_frames, between
+
+    def contact_frames(self, t: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        at_frames, between = self.gaps(t, xy)
+        least = at_frames.copy()
+        if len(between):
+            least[:-1] = np.minimum(least[:-1], between)
+            least[1:] = np.minimum(least[1:], between)
+        near = least < FIGURE_ZONE
+        change, speed, _noise = velocity_change(t, xy, WINDOW)
+        dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+        # A change whose windows reach a wall contact is the wall's (a bounce spreads over +/- WINDOW frames)
+        # unless a figure was close too.
+        wall = np.convolve(contact_frames(self.geometry, t, xy, WINDOW), np.ones(2 * WINDOW + 1), mode="same") > 0
+        near |= (change > CHANGE_WITH_JOINTS) & (least < 0.01 + 1.5 * speed * dt) & (~wall | (least < WALL_OR_FIGURE))
+        unplaced = ~self.joints.covered(t)
+        if np.any(unplaced):
+            near |= unplaced & self.fallback.contact_frames(t, xy)
+        return near
+
+
+def for_game(params: dict, joints: JointTrack | None) -> PosedFigures | RodLines:
+    """What tracks.analyse(..., figures=) takes: figures posed by the joint states, or the rod lines without them."""
+    figures, geometry = FigureModel(params), TableGeometry.from_params(params)
+    return PosedFigures(figures, joints, geometry) if joints is not None else RodLines(figures, geometry)

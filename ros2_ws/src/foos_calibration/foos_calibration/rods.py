@@ -1,0 +1,500 @@
+"""The rod drives from a game: rod_latency, rod_speed_limit and rod_acceleration_limit, by held-out evidence.
+
+The model (foos_sim.drive_limits) shapes each drive's received commands: dead time, speed clip, rate
+limit; the nominal servo then follows with its own acceleration limit (force / inertia) and lag
+(inertia / gain). Each drive's measured /joint_states velocity is compared with that shaped velocity:
+
+    v(t) = y(t - delay - lag),  y: the commands clipped to the speed limit, rate-limited at
+                                   min(acceleration limit, force / inertia)
+
+y is exact for commands that hold between arrivals (a recurrence over the command times only), so a
+model costs one pass over the commands, and every candidate value is a lane of the same arrays.
+
+Selection, per drive (each of the 16 is fitted alone; drives do not interact): every subset of the three
+components is fitted by coordinate descent over grids on all samples and on each of two folds (stretches
+of STRETCH seconds, alternating). A component is added (forward) when the held-out squared error drop it
+brings (each fold predicted with the other fold's fit) exceeds MIN_EVIDENCE variances, no fold loses, and
+its value is material. Then across drives: a component named on most drives of an axis is one effect
+for all drives (the median value); a drive whose own value differs materially from that, or a component
+named on few drives, gives a per-drive effect (team, rod, and for the latency the axis).
+
+The gain: joint positions 0.1 s and 0.25 s ahead (drive_limits.predict_positions) from starts on each
+fold, with the parameters fitted on the other fold, against the nominal drives: medians over starts and
+drives with bootstrap 95 % intervals, slides in mm and rotations in degrees.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from foos_core.names import COMMAND_SIZE, JOINT_NAMES, TEAMS
+from foos_sim.drive_limits import DriveLimits, Servo, drive_limits_from_effects, predict_positions
+
+COMPONENTS = ("latency", "speed", "acceleration")
+EFFECT_OF = {"latency": "rod_latency", "speed": "rod_speed_limit", "acceleration": "rod_acceleration_limit"}
+STRETCH = 4.0  # s: folds alternate stretches of this length
+MIN_EVIDENCE = 30.0  # held-out squared-error drop, in noise (or residual) variances, to name a component
+MIN_FOLD_SHARE = 0.05  # and neither fold may get worse by more than this share of the total (or 10)
+MATERIAL_DELAY = 0.008  # s: less is within the servo model's own approximations (a 2 ms physics step)
+MATERIAL_SPEED = 0.9  # a speed limit below this share of the highest speed the commands asked for
+MATERIAL_ACCEL = 0.35  # an acceleration limit below this share of the servo's own (force / inertia)
+DIFFERENT_DELAY = (0.008, 0.25)  # s and share: a drive's latency differs from the rest by more than both
+DIFFERENT_RATIO = 1.25  # a drive's speed or acceleration limit differs from the rest by more than this factor
+STOP_MARGIN = 0.01  # m: slide samples this close to a travel stop are left out (its soft limit holds the rod)
+HORIZONS = (0.1, 0.25)
+START_SPACING = 0.2  # s between prediction starts
+# Coarse grids, each refined around its best value (REFINE points spanning one coarse step either side).
+DELAY_GRID = np.arange(0.0, 0.1505, 0.006)  # s
+SPEED_GRID = np.geomspace(0.2, 1.0, 12)  # shares of the drive's command limit (1: no limit)
+ACCEL_GRID = np.geomspace(0.01, 1.0, 16)  # shares of the servo's own acceleration (1: no limit)
+REFINE = 9
+SAMPLE_EVERY = 2  # joint states used for the fit: every second one (125 Hz of a 250 Hz encoder is plenty)
+
+
+class RodDataError(ValueError):
+    """Joint states and commands that cannot identify the drives (say why in one line)."""
+
+
+@dataclass
+class DriveData:
+    """One game's drive measurements: joint states (JOINT_NAMES columns) and both teams' commands."""
+
+    t: np.ndarray  # (N,) s
+    position: np.ndarray  # (N, 16)
+    velocity: np.ndarray  # (N, 16)
+    command_t: dict[str, np.ndarray]  # team -> (K,) arrival times
+    commands: dict[str, np.ndarray]  # team -> (K, 8)
+
+
+@dataclass
+class DriveModel:
+    """What the fitting needs to know about the nominal drives (JOINT_NAMES order)."""
+
+    servo: Servo
+    command_limits: np.ndarray  # (16,)
+    travel: np.ndarray  # (16,) slide stops +/-, inf for rotations
+    timestep: float  # the physics step the servo's implicit update is taken at
+
+    @property
+    def servo_accel(self) -> np.ndarray:
+        return self.servo.force_limit / self.servo.inertia
+
+    @property
+    def lag(self) -> np.ndarray:
+        return self.servo.inertia / self.servo.gain
+
+
+@dataclass
+class RodResult:
+    effects: list[dict]
+    block: dict  # report.json "rods"
+    fold_limits: list[DriveLimits] = field(default_factory=list)
+
+
+# --- the shaped velocity ---------------------------------------------------------------------------
+def _recur(event_t: np.ndarray, goals: np.ndarray, accel: np.ndarray) -> np.ndarray:
+    """The rate limiter's value at each event (K, L), for goals (K, L) holding from each event to the next."""
+    y = np.zeros(goals.shape[1])
+    out = np.empty_like(goals)
+    gaps = np.diff(event_t, append=event_t[-1])
+    for k in range(len(event_t)):
+        out[k] = y
+        reach = accel * gaps[k]
+        y = y + np.clip(goals[k] - y, -reach, reach)
+    return out
+
+
+def shaped_velocity(event_t, commands, sample_t, delay, speed, accel, lag) -> np.ndarray:
+    """(L, N): the model's velocity at sample_t for L lanes (commands (K, L); delay, speed, accel, lag (L,))."""
+    goals = np.clip(commands, -speed, speed)
+    y = _recur(event_t, goals, accel)
+    shifted = sample_t[None, :] - (delay + lag)[:, None]
+    k = np.searchsorted(event_t, shifted, side="right") - 1
+    valid = k >= 0
+    k = np.maximum(k, 0)
+    lanes = np.arange(goals.shape[1])[:, None]
+    y0, goal = y[k, lanes], goals[k, lanes]
+    reach = np.maximum(shifted - event_t[k], 0.0)
+    reach *= accel[:, None]
+    goal -= y0
+    np.minimum(goal, reach, out=goal)
+    np.negative(reach, out=reach)
+    np.maximum(goal, reach, out=goal)
+    goal += y0
+    goal *= valid
+    return goal
+
+
+# --- fitting one team's drives ---------------------------------------------------------------------
+@dataclass
+class _Team:
+    """One team's 8 drives prepared for fitting: samples, masks, scales."""
+
+    event_t: np.ndarray
+    commands: np.ndarray  # (K, 8)
+    t: np.ndarray  # (N,) fitting samples
+    measured: np.ndarray  # (8, N)
+    weight: np.ndarray  # (8, N) 1 where a sample counts (not at a stop)
+    folds: np.ndarray  # (N,) 0 or 1
+    limit: np.ndarray  # (8,) command limits
+    servo_accel: np.ndarray
+    lag: np.ndarray
+    asked: np.ndarray  # (8,) the highest |command| sent
+
+
+def _values(params: dict, team: _Team, lanes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per lane: delay, speed, accel from grid shares."""
+    return params["latency"], params["speed"] * team.limit[lanes], params["acceleration"] * team.servo_accel[lanes]
+
+
+def _rss(team: _Team, drives: np.ndarray, params: dict) -> np.ndarray:
+    """(L, 3) squared velocity error over all samples, fold 0 and fold 1, for lanes of (drive, parameter)."""
+    delay, speed, accel = _values(params, team, drives)
+    v = shaped_velocity(team.event_t, team.commands[:, drives], team.t, delay, speed, accel, team.lag[drives])
+    r2 = (v - team.measured[drives]) ** 2 * team.weight[drives]
+    f1 = team.folds[None, :] == 1
+    fold1 = np.where(f1, r2, 0.0).sum(axis=1)
+    total = r2.sum(axis=1)
+    return np.stack([total, total - fold1, fold1], axis=1)
+
+
+GRIDS = {"latency": DELAY_GRID, "speed": SPEED_GRID, "acceleration": ACCEL_GRID}
+ABSENT = {"latency": 0.0, "speed": 1.0, "acceleration": 1.0}
+
+
+def _fit_subset(team: _Team, subset: tuple[str, ...]) -> tuple[np.ndarray, dict]:
+    """Coordinate descent of `subset` on grids for the 8 drives and 3 fitting sets (all, fold 0, fold 1).
+
+    Returns rss (8, 3 fits, 3 evaluation sets) and the fitted values {component: (8, 3)} (grid shares)."""
+    n = COMMAND_SIZE
+    values = {c: np.full((n, 3), ABSENT[c]) for c in COMPONENTS}
+    for sweep in range(2 if len(subset) > 1 else 1):
+        for c in subset:
+            coarse = GRIDS[c]
+            candidates = np.broadcast_to(coarse, (n, 3, len(coarse)))
+            for _ in range(2):  # the coarse grid, then a fine one around each fit's best
+                g = candidates.shape[2]
+                drives = np.repeat(np.arange(n), 3 * g)
+                params = {k: np.repeat(values[k], g, axis=1).ravel() for k in COMPONENTS}
+                params[c] = candidates.ravel()
+                rss = _rss(team, drives, params).reshape(n, 3, g, 3)
+                own = rss[:, [0, 1, 2], :, [0, 1, 2]].transpose(1, 0, 2)  # each fit's own set: (8, 3, g)
+                values[c] = np.take_along_axis(candidates, np.argmin(own, axis=2)[..., None], axis=2)[..., 0]
+                candidates = _fine(c, values[c])
+    drives = np.repeat(np.arange(n), 3)
+    rss = _rss(team, drives, {k: values[k].ravel() for k in COMPONENTS}).reshape(n, 3, 3)
+    return rss, values
+
+
+def _fine(component: str, best: np.ndarray) -> np.ndarray:
+    """(8, 3, REFINE) candidates spanning one coarse grid step either side of each best value."""
+    if component == "latency":
+        step = DELAY_GRID[1] - DELAY_GRID[0]
+        return np.maximum(best[..., None] + np.linspace(-step, step, REFINE), 0.0)
+    grid = GRIDS[component]
+    ratio = grid[1] / grid[0]
+    return np.minimum(best[..., None] * np.geomspace(1 / ratio, ratio, REFINE), 1.0)
+
+
+def _noise2(measured: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """Per drive velocity noise variance from second differences (robust: zero but at command changes)."""
+    d2 = np.diff(measured, n=2, axis=1)
+    ok = (weight[:, 2:] * weight[:, 1:-1] * weight[:, :-2]) > 0
+    out = np.empty(len(measured))
+    for i in range(len(measured)):
+        x = d2[i][ok[i]]
+        out[i] = (1.4826 * np.median(np.abs(x - np.median(x)))) ** 2 / 6.0 if x.size else np.inf
+    return out
+
+
+def _material(component: str, share: float, team: _Team, drive: int) -> bool:
+    if component == "latency":
+        return share >= MATERIAL_DELAY
+    if component == "speed":
+        return share * team.limit[drive] <= MATERIAL_SPEED * team.asked[drive]
+    return share <= MATERIAL_ACCEL
+
+
+def _select_team(team: _Team, progress) -> list[dict]:
+    """Per drive of the team: the named components, their values (all data, fold 0, fold 1) and evidence."""
+    fits = {}
+    for size in range(len(COMPONENTS) + 1):
+        for subset in itertools.combinations(COMPONENTS, size):
+            fits[subset] = _fit_subset(team, subset)
+    noise2 = _noise2(team.measured, team.weight)
+    out = []
+    for d in range(COMMAND_SIZE):
+        chosen: tuple[str, ...] = ()
+        info: dict[str, dict] = {}
+        while True:
+            current = fits[chosen][0][d]
+            best = None
+            for c in COMPONENTS:
+                if c in chosen:
+                    continue
+                subset = tuple(x for x in COMPONENTS if x in chosen + (c,))
+                rss, values = fits[subset]
+                dof = max(1.0, float(team.weight[d].sum()) - len(subset))
+                scale2 = max(noise2[d], rss[d, 0, 0] / dof)
+                # Held out: fold 1 under fold 0's fit, and fold 0 under fold 1's.
+                drops = [(current[1, 2] - rss[d, 1, 2]) / scale2, (current[2, 1] - rss[d, 2, 1]) / scale2]
+                share = float(values[c][d, 0])
+                entry = {"held_out_error_drop_noise_variances": round(float(sum(drops)), 1),
+                         "per_fold": [round(float(x), 1) for x in drops],
+                         "residual_scatter_over_noise": round(float(np.sqrt(scale2 / noise2[d])), 2),
+                         "material": bool(_material(c, share, team, d))}
+                ok = sum(drops) >= MIN_EVIDENCE and min(drops) >= -max(10.0, MIN_FOLD_SHARE * sum(drops)) and entry["material"]
+                if ok and (best is None or sum(drops) > best[1]):
+                    best = (c, sum(drops), subset, entry)
+                info[c] = entry  # the latest look at each candidate not (yet) named
+            if best is None:
+                break
+            c, _, chosen, entry = best
+            info[c] = {**entry, "named": True}
+        values = fits[chosen][1]
+        out.append({"chosen": chosen, "values": {c: values[c][d] for c in chosen}, "evidence": info})
+    return out
+
+
+# --- from drives to effects ------------------------------------------------------------------------
+def _physical(component: str, share: float, drive: int, model: DriveModel) -> float:
+    if component == "latency":
+        return float(share)
+    if component == "speed":
+        return float(share * model.command_limits[drive])
+    return float(share * model.servo_accel[drive])
+
+
+def _differs(component: str, value: float, reference: float) -> bool:
+    if component == "latency":
+        return abs(value - reference) > max(DIFFERENT_DELAY[0], DIFFERENT_DELAY[1] * reference)
+    return max(value, reference) / min(value, reference) > DIFFERENT_RATIO
+
+
+def _round(value: float) -> float:
+    return float(f"{value:.4g}")
+
+
+def combine(per_drive: list[dict], model: DriveModel, column: int = 0) -> tuple[list[dict], dict]:
+    """Effects in the contract's vocabulary from the 16 drives' choices (values of fit `column`: 0 all
+    data, 1 fold 0, 2 fold 1), and for each effect the drives it rests on."""
+    effects, basis = [], {}
+    axes = {"slide": [j for j, n in enumerate(JOINT_NAMES) if n.endswith("_slide")],
+            "rotate": [j for j, n in enumerate(JOINT_NAMES) if n.endswith("_rotate")]}
+    for component in COMPONENTS:
+        name = EFFECT_OF[component]
+        global_params, single = {}, {}
+        groups = {"all": list(range(len(JOINT_NAMES)))} if component == "latency" else axes
+        for group, drives in groups.items():
+            named = {j: _physical(component, per_drive[j]["values"][component][column], j, model)
+                     for j in drives if component in per_drive[j]["chosen"]}
+            if not named:
+                continue
+            if len(named) > len(drives) / 2:
+                reference = float(np.median(list(named.values())))
+                global_params["delay" if component == "latency" else group] = _round(reference)
+                odd = {j: v for j, v in named.items() if _differs(component, v, reference)}
+            else:
+                odd = named
+            for j, value in odd.items():
+                team, rod, axis = JOINT_NAMES[j].split("_")
+                single.setdefault((team, rod), {})[axis] = _round(value)
+        if global_params:
+            effects.append({"name": name, "params": global_params})
+            basis[(name, None)] = [JOINT_NAMES[j] for j in range(len(JOINT_NAMES)) if component in per_drive[j]["chosen"]]
+        for (team, rod), by_axis in single.items():
+            if component == "latency":
+                if len(by_axis) == 2 and not _differs(component, by_axis["slide"], by_axis["rotate"]):
+                    effects.append({"name": name, "params": {"delay": _round((by_axis["slide"] + by_axis["rotate"]) / 2),
+                                                             "team": team, "rod": rod}})
+                else:
+                    effects += [{"name": name, "params": {"delay": v, "team": team, "rod": rod, "axis": axis}}
+                                for axis, v in by_axis.items()]
+            else:
+                effects.append({"name": name, "params": {**by_axis, "team": team, "rod": rod}})
+            basis[(name, (team, rod))] = [f"{team}_{rod}_{axis}" for axis in by_axis]
+    return effects, basis
+
+
+def limits_of(effects: list[dict]) -> DriveLimits:
+    limits = drive_limits_from_effects(effects)
+    n = len(JOINT_NAMES)
+    return limits if limits is not None else DriveLimits(np.zeros(n), np.full(n, np.inf), np.full(n, np.inf))
+
+
+# --- identification and its gain --------------------------------------------------------------------
+def _teams(data: DriveData, model: DriveModel) -> list[_Team]:
+    slide = np.array([n.endswith("_slide") for n in JOINT_NAMES])
+    at_stop = slide[None, :] & (np.abs(data.position) > model.travel[None, :] - STOP_MARGIN)
+    folds = (np.floor((data.t - data.t[0]) / STRETCH).astype(int) % 2)
+    teams = []
+    for i, team in enumerate(TEAMS):
+        cols = slice(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
+        commands = np.clip(data.commands[team], -model.command_limits[cols], model.command_limits[cols])
+        every = slice(None, None, SAMPLE_EVERY)
+        teams.append(_Team(
+            event_t=data.command_t[team], commands=commands, t=data.t[every], measured=data.velocity[every, cols].T,
+            weight=(~at_stop[every, cols]).T.astype(float), folds=folds[every], limit=model.command_limits[cols],
+            servo_accel=model.servo_accel[cols], lag=model.lag[cols], asked=np.abs(commands).max(axis=0)))
+    return teams
+
+
+def model_velocity(data: DriveData, model: DriveModel, limits: DriveLimits, times: np.ndarray) -> np.ndarray:
+    """(len(times), 16): each drive's velocity under `limits`, from the commands alone."""
+    out = np.zeros((len(times), len(JOINT_NAMES)))
+    for i, team in enumerate(TEAMS):
+        cols = np.arange(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
+        commands = np.clip(data.commands[team], -model.command_limits[cols], model.command_limits[cols])
+        speed = np.minimum(limits.speed[cols], model.command_limits[cols])
+        accel = np.minimum(limits.acceleration[cols], model.servo_accel[cols])
+        out[:, cols] = shaped_velocity(data.command_t[team], commands, times, limits.delay[cols], speed, accel, model.lag[cols]).T
+    return out
+
+
+def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[DriveLimits]) -> tuple[np.ndarray, np.ndarray]:
+    """(starts, horizons, 16) absolute position errors 0.1 and 0.25 s ahead, and each start's fold.
+
+    A start on fold k is predicted with fold_limits[1 - k] (fitted on the other fold). The velocity at the
+    start is the model's own, from the commands before it (the encoders' velocity is too noisy to start
+    from); the position is the measured one."""
+    span = data.t[-1] - max(HORIZONS)
+    t0 = np.arange(data.t[0] + 0.5, span, START_SPACING)
+    t0 = data.t[np.searchsorted(data.t, t0)]
+    folds = (np.floor((t0 - data.t[0]) / STRETCH).astype(int) % 2)
+    errors = np.full((len(t0), len(HORIZONS), len(JOINT_NAMES)), np.nan)
+    for k in (0, 1):
+        rows = np.flatnonzero(folds == k)
+        if rows.size == 0:
+            continue
+        limits = fold_limits[1 - k]
+        v0 = model_velocity(data, model, limits, t0[rows])
+        p0 = np.stack([np.interp(t0[rows], data.t, data.position[:, j]) for j in range(len(JOINT_NAMES))], axis=1)
+        for i, team in enumerate(TEAMS):
+            cols = np.arange(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
+            servo = Servo(model.servo.inertia[cols], model.servo.gain[cols], model.servo.force_limit[cols])
+            predicted = predict_positions(t0[rows], p0[:, cols], v0[:, cols], data.command_t[team], data.commands[team],
+                                          limits.team(team), servo, model.command_limits[cols], HORIZONS,
+                                          model.travel[cols], model.timestep)
+            for h, horizon in enumerate(HORIZONS):
+                truth = np.stack([np.interp(t0[rows] + horizon, data.t, data.position[:, j]) for j in cols], axis=1)
+                error = np.abs(predicted[:, h] - truth)
+                # A slide that meets its travel stop is left out: the stops are soft (a slide driven into one goes
+                # several cm past its travel in MuJoCo), and no part of the drive model.
+                first, last = np.searchsorted(data.t, t0[rows]), np.searchsorted(data.t, t0[rows] + horizon, side="right")
+                reach = np.array([np.abs(data.position[i:j + 1, cols]).max(axis=0) for i, j in zip(first, last)])
+                near = reach > model.travel[cols] - STOP_MARGIN  # at a stop somewhere on the way
+                errors[rows[:, None], h, cols[None, :]] = np.where(near, np.nan, error)
+    return errors, folds
+
+
+def gain_summary(errors: np.ndarray, seed: int = 0, n_boot: int = 1000) -> dict:
+    """Median errors (slides mm, rotations deg) per horizon with bootstrap 95 % intervals over starts."""
+    rng = np.random.default_rng(seed)
+    slide = np.array([n.endswith("_slide") for n in JOINT_NAMES])
+    out = {}
+    for axis, mask, scale, unit in (("slide", slide, 1000.0, "mm"), ("rotate", ~slide, 180.0 / np.pi, "deg")):
+        for h, horizon in enumerate(HORIZONS):
+            per_start = errors[:, h][:, mask] * scale  # (starts, drives), NaN: a slide at a stop
+            per_start = per_start[np.isfinite(per_start).any(axis=1)]
+            key = f"{axis}_median_error_{unit}_{horizon:g}s".replace(".", "_")
+            if len(per_start) == 0:
+                out[key] = None
+                continue
+            # Resample starts (each start carries its drives' errors): the drives of one start are not independent.
+            picks = rng.integers(0, len(per_start), size=(n_boot, len(per_start)))
+            boot = np.array([np.nanmedian(per_start[p]) for p in picks])
+            out[key] = round(float(np.nanmedian(per_start)), 3)
+            out[key.replace("median_error", "ci95")] = [round(float(np.percentile(boot, 2.5)), 3),
+                                                         round(float(np.percentile(boot, 97.5)), 3)]
+    out["starts"] = int(len(errors))
+    return out
+
+
+def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None] = lambda message: None,
+             seed: int = 0) -> RodResult:
+    """The drive effects the game supports, with evidence, and the report's `rods` block."""
+    progress("fitting the rod drives (latency, speed and acceleration limits) per drive, on two folds")
+    per_drive = []
+    for team in _teams(data, model):
+        per_drive += _select_team(team, progress)
+    effects, basis = combine(per_drive, model, 0)
+    fold_effects = [combine(per_drive, model, column)[0] for column in (1, 2)]  # fitted on fold 0, on fold 1
+    for effect in effects:
+        where = (effect["params"].get("team"), effect["params"].get("rod"))
+        drives = basis.get((effect["name"], None if where == (None, None) else where), [])
+        component = next(c for c, n in EFFECT_OF.items() if n == effect["name"])
+        effect["evidence"] = {
+            "drives_named": len(drives),
+            "held_out_error_drop_noise_variances": round(float(sum(
+                per_drive[JOINT_NAMES.index(j)]["evidence"][component]["held_out_error_drop_noise_variances"] for j in drives)), 1),
+            "per_drive": {j: per_drive[JOINT_NAMES.index(j)]["evidence"][component] for j in drives},
+        }
+    progress("predicting joint positions 0.1 and 0.25 s ahead on held-out stretches")
+    nominal = limits_of([])
+    nominal_errors, _ = prediction_errors(data, model, [nominal, nominal])
+    calibrated_errors, _ = prediction_errors(data, model, [limits_of(e) for e in fold_effects]) if effects else (nominal_errors, None)
+    rejected = {}
+    for j, drive in enumerate(per_drive):
+        for c, entry in drive["evidence"].items():
+            if c not in drive["chosen"] and entry["held_out_error_drop_noise_variances"] >= MIN_EVIDENCE:
+                rejected.setdefault(EFFECT_OF[c], {})[JOINT_NAMES[j]] = entry
+    block = {
+        "data": {"joint_states": int(len(data.t)), "duration_s": round(float(data.t[-1] - data.t[0]), 2),
+                 "commands": {team: int(len(data.command_t[team])) for team in TEAMS}},
+        "baseline": gain_summary(nominal_errors, seed),
+        "calibrated": gain_summary(calibrated_errors, seed),
+        "per_drive": {JOINT_NAMES[j]: {c: _round(_physical(c, d["values"][c][0], j, model)) for c in d["chosen"]}
+                      for j, d in enumerate(per_drive) if d["chosen"]},
+        "rejected": rejected,
+        "method": {
+            "model": "dead time, speed clip, rate limit on the received commands; the nominal servo's own acceleration "
+                     "(force / inertia) and lag (inertia / gain) after them (foos_sim.drive_limits)",
+            "fit": "per drive, every subset of {latency, speed, acceleration} on grids (coordinate descent), velocity residuals "
+                   "of /joint_states against the commands; slide samples at a travel stop left out",
+            "selection": f"forward per drive: held-out squared-error drop (2 alternating folds of {STRETCH:g} s stretches) over "
+                         f"{MIN_EVIDENCE:g} noise variances and material; one effect for all drives when most drives of the axis "
+                         "name it (median value), a per-drive effect where a drive differs materially or few drives name it",
+            "gain": "joint position error 0.1 s and 0.25 s ahead from starts every 0.2 s, each predicted with the parameters "
+                    "fitted on the other fold; medians over starts and drives, slides in mm, rotations in degrees, bootstrap "
+                    "95 % intervals over starts; slides that come within 1 cm of a travel stop before the horizon left out "
+                    "(soft stops, not modelled)",
+        },
+    }
+    return RodResult(effects, block, [limits_of(e) for e in fold_effects])
+
+
+def describe(effect: dict) -> str:
+    """One plain sentence for the report."""
+    p = effect["params"]
+    narrowed = any(k in p for k in ("team", "rod", "axis"))
+    drives = "The " + " ".join(str(p[k]) for k in ("team", "rod", "axis") if k in p) + " drive" if narrowed else "Every drive"
+    where = " of the " + drives[4:] if narrowed else " of every drive"
+    if effect["name"] == "rod_latency":
+        return (f"{drives} acts {p['delay'] * 1000:.0f} ms after a command arrives (dead time). Modelled by delaying the "
+                "commands TableSimulation gives its velocity servos (foos_sim.drive_limits).")
+    parts = [f"{p['slide']:.3g} m/s{'^2' if 'acceleration' in effect['name'] else ''} sliding" if "slide" in p else "",
+             f"{p['rotate']:.3g} rad/s{'^2' if 'acceleration' in effect['name'] else ''} turning" if "rotate" in p else ""]
+    what = "speed" if effect["name"] == "rod_speed_limit" else "acceleration"
+    return (f"The {what}{where} is limited to {' and '.join(x for x in parts if x)}. Modelled by limiting the servo's "
+            "target (foos_sim.drive_limits).")
+
+
+def markdown(block: dict, effects: list[dict]) -> str:
+    """The report's rods section."""
+    out = ["", "## The rod drives", ""]
+    named = [e for e in effects if e["name"] in EFFECT_OF.values()]
+    out += [f"- **{e['name']}** {e['params']}: {describe(e)} (held-out evidence "
+            f"{e['evidence']['held_out_error_drop_noise_variances']} noise variances over {e['evidence']['drives_named']} drive(s))"
+            for e in named] or ["Nothing: the nominal drives explain the joint states."]
+    out += ["", "Joint position error on held-out stretches (median, 95 % bootstrap interval), nominal -> calibrated:", "",
+            "| axis | horizon | nominal | calibrated |", "|---|---|---|---|"]
+    b, c = block["baseline"], block["calibrated"]
+    for axis, unit in (("slide", "mm"), ("rotate", "deg")):
+        for horizon in HORIZONS:
+            key = f"{axis}_median_error_{unit}_{horizon:g}s".replace(".", "_")
+            ci = key.replace("median_error", "ci95")
+            out.append(f"| {axis} ({unit}) | {horizon:g} s | {b.get(key)} {b.get(ci, '')} | {c.get(key)} {c.get(ci, '')} |")
+    return "\n".join(out) + "\n"

@@ -1,0 +1,63 @@
+"""The rod drives identified from generated games: each effect hidden alone, a pair, and nothing hidden.
+
+The games hide the effects in the generator's own command pipeline (foos_calibration.games.HiddenDrives),
+not in foos_sim.drive_limits, the model the identification fits. Tolerances: latency +/- 5 ms, speed limits
++/- 8 %, acceleration limits +/- 20 %.
+"""
+from __future__ import annotations
+
+import pytest
+
+from foos_calibration.game_data import drive_model
+from foos_calibration.games import GameOptions, play
+from foos_calibration.rods import DriveData, identify
+from foos_core.names import TEAMS
+from foos_core.table_params import load_params
+
+DURATION = 30.0  # s of game per case
+
+
+def identified(effects, seed):
+    recording = play(effects, GameOptions(duration=DURATION, seed=seed))
+    data = DriveData(recording.joint_t, recording.joint_position, recording.joint_velocity,
+                     {team: recording.command_t for team in TEAMS}, recording.commands)
+    return identify(data, drive_model(load_params()))
+
+
+def close(found, hidden, tolerance):
+    return all(abs(found[k] - v) <= tolerance * (1 if k == "delay" else v) for k, v in hidden.items()
+               if k not in ("team", "rod", "axis"))
+
+
+@pytest.mark.parametrize("effect, tolerance", [
+    ({"name": "rod_latency", "params": {"delay": 0.045}}, 0.005),
+    ({"name": "rod_speed_limit", "params": {"slide": 1.6, "rotate": 22.0}}, 0.08),
+    ({"name": "rod_acceleration_limit", "params": {"slide": 40.0, "rotate": 800.0}}, 0.2),
+])
+def test_each_drive_effect_alone_is_found_exactly(effect, tolerance):
+    result = identified([effect], seed=11)
+    assert [e["name"] for e in result.effects] == [effect["name"]], result.effects
+    found = result.effects[0]["params"]
+    assert set(found) == set(effect["params"]) and close(found, effect["params"], tolerance), found
+    assert result.effects[0]["evidence"]["held_out_error_drop_noise_variances"] > 30
+    block = result.block
+    for axis, unit in (("slide", "mm"), ("rotate", "deg")):
+        key = f"{axis}_median_error_{unit}_0_25s"
+        assert block["calibrated"][key] < 0.5 * block["baseline"][key], block
+
+
+def test_latency_with_a_speed_limit_on_one_rod_is_found_as_such():
+    hidden = [{"name": "rod_latency", "params": {"delay": 0.03}},
+              {"name": "rod_speed_limit", "params": {"slide": 1.2, "rotate": 15.0, "team": "home", "rod": "attack"}}]
+    result = identified(hidden, seed=5)
+    assert sorted(e["name"] for e in result.effects) == ["rod_latency", "rod_speed_limit"], result.effects
+    latency = next(e for e in result.effects if e["name"] == "rod_latency")["params"]
+    speed = next(e for e in result.effects if e["name"] == "rod_speed_limit")["params"]
+    assert set(latency) == {"delay"} and abs(latency["delay"] - 0.03) <= 0.005
+    assert speed["team"] == "home" and speed["rod"] == "attack" and close(speed, hidden[1]["params"], 0.08), speed
+
+
+def test_nothing_hidden_names_no_drive_effect():
+    result = identified([], seed=7)
+    assert result.effects == []
+    assert result.block["calibrated"] == result.block["baseline"]
