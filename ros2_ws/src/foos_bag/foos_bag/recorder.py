@@ -13,6 +13,7 @@ import time
 from dataclasses import dataclass, field
 from functools import partial
 
+from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
@@ -94,8 +95,12 @@ class Recorder(Node):
         self._skipped: set[str] = set()
         self._clock = self.get_clock()
         self.discover()
-        self.create_timer(config.polling_interval, self.discover)
-        self.create_timer(config.flush_interval, self.writer.flush)
+        # Discovery and flushing run on the steady clock: with use_sim_time the node's own clock stands still
+        # until /clock arrives, and a player that waits for subscribers before it publishes /clock (ros2 bag
+        # play --clock --wait-for-subscribers) would then wait for a recorder that never subscribes.
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(config.polling_interval, self.discover, clock=steady)
+        self.create_timer(config.flush_interval, self.writer.flush, clock=steady)
         what = "all topics" if config.all_topics else ", ".join(sorted(self.selector.names)) or config.regex
         self.get_logger().info(f"Recording {what} into {config.output} ({config.storage})")
 
