@@ -173,3 +173,15 @@ def test_joint_states_calibration_cannot_use_are_refused():
     shuffled = list(reversed(JOINT_NAMES))
     track = JointTrack.from_joint_states(np.arange(3.0), shuffled, np.tile(np.arange(16.0), (3, 1)))
     assert track.q[0, 0] == 15.0  # reordered by name into JOINT_NAMES order
+
+
+def test_a_stretch_shorter_than_the_window_keeps_its_length():
+    """A stretch between two figure contacts can be a few frames long (bench_calibration --games crashed on one)."""
+    from foos_calibration.figure_contacts import _spread  # the one helper every window over contacts goes through
+
+    short = np.zeros(5, dtype=bool)
+    short[2] = True
+    assert _spread(short, 6).tolist() == [True] * 5
+    long = np.zeros(30)
+    long[[3, 17]] = 1
+    assert np.array_equal(_spread(long, 6), np.convolve(long, np.ones(13), mode="same") > 0)

@@ -165,6 +165,12 @@ def _reach_y(figures: FigureModel) -> float:
     return float(best)
 
 
+
+def _spread(frames: np.ndarray, half: int) -> np.ndarray:
+    """Frames within `half` frames of a marked one. (np.convolve's "same" mode returns the kernel's length for a
+    track shorter than the kernel: stretches between figure contacts can be.)"""
+    return np.convolve(np.asarray(frames, dtype=float), np.ones(2 * half + 1))[half: half + len(frames)] > 0
+
 @dataclass
 class JointTrack:
     """Encoder samples: stamps (n,) and the 16 joint positions (n, 16) in JOINT_NAMES order."""
@@ -229,10 +235,10 @@ class RodLines:
         padded = np.concatenate([np.zeros(WINDOW), change, np.zeros(WINDOW)])
         peak = change >= windows(padded, 2 * WINDOW + 1).max(axis=1)
         # A change whose windows reach a wall contact is the wall's: without the figures' poses nothing says otherwise.
-        wall = np.convolve(contact_frames(self.geometry, t, xy, WINDOW), np.ones(2 * WINDOW + 1), mode="same") > 0
+        wall = _spread(contact_frames(self.geometry, t, xy, WINDOW), WINDOW)
         event = peak & (change > threshold) & self.near_rod(xy) & ~wall
         # The frames around the touch: those whose velocity windows both saw it.
-        return np.convolve(event, np.ones(2 * PEAK_HALF_WIDTH + 1), mode="same") > 0
+        return _spread(event, PEAK_HALF_WIDTH)
 
 
 class PosedFigures:
@@ -274,7 +280,7 @@ class PosedFigures:
         dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
         # A change whose windows reach a wall contact is the wall's (a bounce spreads over +/- WINDOW frames)
         # unless a figure was close too.
-        wall = np.convolve(contact_frames(self.geometry, t, xy, WINDOW), np.ones(2 * WINDOW + 1), mode="same") > 0
+        wall = _spread(contact_frames(self.geometry, t, xy, WINDOW), WINDOW)
         near |= (change > CHANGE_WITH_JOINTS) & (least < 0.01 + 1.5 * speed * dt) & (~wall | (least < WALL_OR_FIGURE))
         unplaced = ~self.joints.covered(t)
         if np.any(unplaced):

@@ -9,7 +9,8 @@ Hidden drive effects (`rod_latency`, `rod_speed_limit`, `rod_acceleration_limit`
 generator's OWN command pipeline (HiddenDrives: a delay queue and limiters on what it sends, step by step,
 to an ideal TableSimulation), not by foos_sim.drive_limits, the model calibration fits. Hidden table
 effects (TABLE_EFFECTS) are forces on the ball from the same loop (hidden_forces, as the free-roll
-generator's). The bag records the commands as the players sent them, as a real recorder would:
+generator's). A hidden `camera_latency` stamps every detection `delay` after its capture (the encoders keep
+the true clock). The bag records the commands as the players sent them, as a real recorder would:
 
   /ball/detection   geometry_msgs/PointStamped at the camera rate, Gaussian noise, dropouts
   /joint_states     the 16 joints at the encoder rate, stamped at measurement, with encoder noise
@@ -40,6 +41,9 @@ DRIVE_EFFECTS = ("rod_latency", "rod_speed_limit", "rod_acceleration_limit")
 # Table effects a game can hide (forces on the ball). Not wall_restitution: the free-roll generator changes
 # bounces at the walls it knows, the game's fast physics resolves them in foos_sim.impacts.
 TABLE_EFFECTS = ("table_tilt", "rolling_resistance", "viscous_damping", "air_drag", "surface_dent")
+# The camera's latency is hidden in the stamps alone: a detection is stamped `delay` after its capture.
+CAMERA_EFFECTS = ("camera_latency",)
+MAX_CAMERA_DELAY = 0.5  # s
 CONTROL_PERIOD = 0.02  # s: the players send commands at 50 Hz, as the RL env and policy_node do
 KICK_REACH = 0.07  # m: a player kicks when the ball centre is this close to its rod line
 KICK_TIME = 0.08  # s of full-speed rotation per kick
@@ -209,9 +213,11 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
     The hidden drive effects are applied by HiddenDrives, the table effects (TABLE_EFFECTS) by forces on
     the ball from this loop (hidden_forces), both outside the model that `calibrate` fits.
     """
-    unknown = [e.get("name") for e in effects if e.get("name") not in DRIVE_EFFECTS + TABLE_EFFECTS]
+    unknown = [e.get("name") for e in effects if e.get("name") not in DRIVE_EFFECTS + TABLE_EFFECTS + CAMERA_EFFECTS]
     if unknown:
-        raise GameError(f"the game generator hides {', '.join(DRIVE_EFFECTS + TABLE_EFFECTS)}; not `{unknown[0]}`")
+        raise GameError(f"the game generator hides {', '.join(DRIVE_EFFECTS + TABLE_EFFECTS + CAMERA_EFFECTS)}; "
+                        f"not `{unknown[0]}`")
+    camera_delay = _camera_delay(effects)
     try:
         table = HiddenEffects.from_effects([e for e in effects if e.get("name") in TABLE_EFFECTS])
     except EffectError as error:
@@ -257,7 +263,7 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
             _serve(sim, rng)
             serves += 1
             rest_since = None
-    return _measure(options, rng, sim, np.array(ball_t), np.array(ball_p), np.array(joint_p), np.array(joint_v),
+    return _measure(options, rng, sim, camera_delay, np.array(ball_t), np.array(ball_p), np.array(joint_p), np.array(joint_v),
                     np.array(command_t), {t: np.array(v) for t, v in commands.items()}, serves, goals)
 
 
@@ -277,7 +283,21 @@ class _BallPush:
                                                        sim.ball_angular_velocity())
 
 
-def _measure(options, rng, sim, t, ball, joint_p, joint_v, command_t, commands, serves, goals) -> GameRecording:
+def _camera_delay(effects: Sequence[dict]) -> float:
+    """s: the hidden camera latency (camera_latency's `delay`), 0 without one."""
+    delays = []
+    for effect in effects:
+        if effect.get("name") in CAMERA_EFFECTS:
+            delay = (effect.get("params") or {}).get("delay")
+            if not isinstance(delay, (int, float)) or not (0 <= delay <= MAX_CAMERA_DELAY):
+                raise GameError(f"effect `camera_latency` needs `delay` in [0, {MAX_CAMERA_DELAY}] s")
+            delays.append(float(delay))
+    if len(delays) > 1:
+        raise GameError("one `camera_latency` at most")
+    return delays[0] if delays else 0.0
+
+
+def _measure(options, rng, sim, camera_delay, t, ball, joint_p, joint_v, command_t, commands, serves, goals) -> GameRecording:
     """Camera frames and encoder samples from the per-step truth."""
     frames = np.arange(t[0], t[-1], 1.0 / options.fps)
     index = np.clip(np.searchsorted(t, frames), 0, len(t) - 1)  # the state at the end of the step a frame falls in
@@ -293,7 +313,8 @@ def _measure(options, rng, sim, t, ball, joint_p, joint_v, command_t, commands, 
         slide, options.slide_noise, options.rotate_noise)
     velocity = joint_v[pick] + rng.normal(size=(len(pick), len(JOINT_NAMES))) * np.where(
         slide, options.slide_velocity_noise, options.rotate_velocity_noise)
-    return GameRecording(frames[seen], detections, t[pick], position, velocity, command_t, commands, serves, goals,
+    # A camera latency: the stamp is later than the capture (the encoders' stamps stay the reference clock).
+    return GameRecording(frames[seen] + camera_delay, detections, t[pick], position, velocity, command_t, commands, serves, goals,
                          sim.figure_touches())
 
 

@@ -271,8 +271,8 @@ def parse_effect(text: str) -> dict:
             params[key] = float(value)
         except ValueError:
             raise argparse.ArgumentTypeError(f"effect parameter `{item}` is not key=number") from None
-    if name not in MODEL_EFFECT_NAMES:
-        raise argparse.ArgumentTypeError(f"unknown effect `{name}` (known: {', '.join(MODEL_EFFECT_NAMES)})")
+    if name not in MODEL_EFFECT_NAMES + games.CAMERA_EFFECTS:
+        raise argparse.ArgumentTypeError(f"unknown effect `{name}` (known: {', '.join(MODEL_EFFECT_NAMES + games.CAMERA_EFFECTS)})")
     return {"name": name, "params": params}
 
 
@@ -329,6 +329,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         if any(e["name"] in games.DRIVE_EFFECTS for e in effects):  # a free roll has no drives to hide them in
             raise ValueError("drive effects (rod_*) are hidden in games: add --game")
+        if any(e["name"] in games.CAMERA_EFFECTS for e in effects):  # found against the encoders' clock
+            raise ValueError("camera_latency is hidden in games (against the joint states' clock): add --game")
         if args.random:
             rng = np.random.default_rng(args.seed + 1_000_003)
             names = rng.choice([n for n in EFFECT_NAMES], size=min(args.random, len(EFFECT_NAMES)), replace=False)

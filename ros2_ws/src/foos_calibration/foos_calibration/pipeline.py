@@ -19,6 +19,7 @@ from . import rods as rod_drives
 from .bounces import fit_restitution, fold_restitution
 from .evaluate import HORIZONS, choose_starts, errors_of, estimate_states, predict, summary
 from .figure_contacts import JointTrack, for_game
+from .game_ball import camera_and_figures
 from .game_data import Encoders, drive_model
 from .mjsim import base_effect_names, effects_list, params_with, restitution_of, theta_of
 from .select import select_effects
@@ -136,6 +137,9 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
     t, xy = validate(t, position, frame_id)
     progress("finding tracks, wall and figure contacts, and rolling segments")
     joints = JointTrack(encoders.t, encoders.position) if encoders is not None else None
+    game = camera_and_figures(t, xy, geometry, params, joints, options.seed, progress) if joints is not None else None
+    if game is not None:
+        t = game.t  # the detections at capture time (a named camera latency taken off)
     measured = analyse(t, xy, geometry, figures=for_game(params, joints))
     if len(measured.segments) < MIN_SEGMENTS:
         raise DataError(f"too little rolling data: {len(measured.segments)} rolling segments of at least 0.25 s "
@@ -157,7 +161,10 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
               "# `ros2 run foos_sim sim_node --ros-args -p params_file:=<this file>`.\n")
     base_ref = str(Path(options.base).resolve()) if options.base else "regulation_table"
     rod_effects = _plain_effects(rods.effects) if rods is not None else base_drive_effects
-    params_file.write_text(header + yaml.safe_dump({"base": base_ref, "effects": table_effects + rod_effects}, sort_keys=False))
+    # The figures' restitution belongs to the table; the camera's latency does not (it is the camera's).
+    figure_effects = _plain_effects(game.figures.effects) if game is not None else []
+    params_file.write_text(header + yaml.safe_dump({"base": base_ref, "effects": table_effects + figure_effects + rod_effects},
+                                                   sort_keys=False))
     load_params(params_file)  # the file must be loadable; raises if not
 
     progress("measuring the gain on held-out starts (MuJoCo rollouts)")
@@ -194,7 +201,7 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
     progress("looking for what the model still misses")
     final_label = "calibrated" if effects else "nominal"
     unexplained = find_unexplained(measured.segments, selection.fit, measured.noise, geometry,
-                                   out_dir / FIGURE_FILE if options.figures else None)
+                                   out_dir / FIGURE_FILE if options.figures else None, measured.flights)
     noise_floor = None
     if predictions:
         floor_by_horizon = prediction_floor(starts, models[final_label][1], measured.noise, options.seed)
@@ -207,6 +214,8 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
     for effect in effects:
         evidence = (restitution.evidence if effect["name"] == "wall_restitution" else selection.evidence.get(effect["name"], {}))
         report_effects.append({**effect, "evidence": evidence, "description": describe(effect, nominal_rolling, nominal_e)})
+    if game is not None:
+        report_effects += game.effects()
     if rods is not None:
         report_effects += [{**e, "description": rod_drives.describe(e)} for e in rods.effects]
     report = {
@@ -245,6 +254,8 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
         report["figures"] = [p.name for p in sorted(out_dir.glob("*.png"))]
     if rods is not None:
         report["rods"] = rods.block
+    if game is not None:
+        report["camera"], report["figure_bounces"] = game.camera.block, game.figures.block
     if floor is not None:
         report["floor"] = floor
     report["runtime_s"] = round(time.monotonic() - started, 1)

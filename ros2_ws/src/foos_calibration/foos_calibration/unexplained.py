@@ -37,7 +37,7 @@ from foos_core.table_geometry import TableGeometry  # noqa: E402
 from . import surrogate  # noqa: E402
 from .evaluate import HORIZONS, Start, estimate_states  # noqa: E402
 from .fitting import DT, Fit, SegmentBatch, fit_states  # noqa: E402
-from .tracks import Segment  # noqa: E402
+from .tracks import Flight, Segment  # noqa: E402
 
 FAR_ABOVE = 3.0  # residual RMS over the detection noise that is far above it
 MIN_FRAMES = 120  # frames a place needs (1 s at 120 fps) before its residual is judged
@@ -62,7 +62,8 @@ class Residuals:
     after_figure: np.ndarray  # (N,) the segment starts at a figure contact
 
 
-def residuals_of(segments: Sequence[Segment], fit: Fit) -> Residuals:
+def residuals_of(segments: Sequence[Segment], fit: Fit, flights: Sequence[Flight] | None = None) -> Residuals:
+    """Per-frame residuals; `flights` (the segments' flights, by index) tell which start at a figure contact."""
     batch = SegmentBatch(segments)
     prediction = batch.predict(fit.states, np.tile(fit.theta, (batch.n, 1)))
     seg, smp = batch.seg_of, batch.sample_of
@@ -73,8 +74,9 @@ def residuals_of(segments: Sequence[Segment], fit: Fit) -> Residuals:
         m = int(batch.mask[i].sum())
         if m >= 2:
             velocity[i, :m] = np.gradient(prediction[i, :m], tau[i, :m], axis=0)
-    starts_at_wall = np.array([s.slide for s in batch.segments], dtype=bool)
-    starts_at_figure = np.array([bool(getattr(s, "after_figure", False)) for s in batch.segments], dtype=bool)
+    starts_at_figure = np.array([flights is not None and flights[s.flight].after_figure and flights[s.flight].t[0] == s.t[0]
+                                 for s in batch.segments], dtype=bool)
+    starts_at_wall = np.array([s.slide for s in batch.segments], dtype=bool) & ~starts_at_figure
     return Residuals(
         xy=batch.meas[seg, smp],
         residual=prediction[seg, smp] - batch.meas[seg, smp],
@@ -114,7 +116,7 @@ def places(res: Residuals, geometry: TableGeometry) -> list[tuple[str, str, np.n
 
 
 def find_unexplained(segments: Sequence[Segment], fit: Fit, noise: float, geometry: TableGeometry,
-                     figure: Path | None = None) -> list[dict]:
+                     figure: Path | None = None, flights: Sequence[Flight] | None = None) -> list[dict]:
     """The places where the fitted model's residuals are far above the noise (contract: report.json `unexplained`).
 
     The whole of the data comes first when it is flagged; the other places follow, worst first. Draws
@@ -122,7 +124,7 @@ def find_unexplained(segments: Sequence[Segment], fit: Fit, noise: float, geomet
     """
     if not segments:
         return []
-    res = residuals_of(segments, fit)
+    res = residuals_of(segments, fit, flights)
     judged = []
     for kind, where, mask in places(res, geometry):
         frames, count = int(mask.sum()), len(np.unique(res.segment[mask]))

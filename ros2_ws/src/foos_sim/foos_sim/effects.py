@@ -12,6 +12,8 @@ the real cause would, never by a correction added on top of the simulation:
 | surface_dent         | a height field in place of the flat field geom (reference physics); on the |
 |                      | fast physics the dent's slope pushes the ball (DentSlopes)                 |
 | wall_restitution     | the ball-wall contacts' damping (all walls, or the named one)              |
+| figure_restitution   | the ball-figure contacts' restitution (every figure): damping, and the fast |
+|                      | physics' impact rule                                                        |
 | rod_latency,         | not MuJoCo: the drives' dead time, speed and acceleration limits shape the |
 | rod_speed_limit,     | velocity target of the servos (foos_sim.drive_limits.DriveShaper, applied  |
 | rod_acceleration_... | by TableSimulation on both physics)                                         |
@@ -40,7 +42,9 @@ EFFECT_NAMES = (
     "wall_restitution",
 )
 
-MODEL_EFFECT_NAMES = EFFECT_NAMES + DRIVE_EFFECT_NAMES  # every effect a parameter file may carry
+# Seen only in games (the ball meets moving figures): the ball-figure contacts' restitution.
+FIGURE_EFFECT_NAMES = ("figure_restitution",)
+MODEL_EFFECT_NAMES = EFFECT_NAMES + FIGURE_EFFECT_NAMES + DRIVE_EFFECT_NAMES  # every effect a parameter file may carry
 
 # Rolling solid sphere: m_eff = m + I / r^2 = 7/5 m.
 ROLLING_MASS_FACTOR = 7.0 / 5.0
@@ -74,6 +78,7 @@ class Physics:
     air_density: float = 0.0  # kg/m^3, MuJoCo option density
     ball_blunt_drag: float = 0.0  # the ball geom's blunt drag coefficient in the ellipsoid fluid model
     wall_restitution: dict[str, float] = field(default_factory=dict)  # wall geom name (or "*") -> e
+    figure_restitution: float | None = None  # every figure; None: the parameter file's figures.restitution
     dents: list[Dent] = field(default_factory=list)
 
 
@@ -136,7 +141,7 @@ def resolve(params: dict) -> Physics:
         name = effect.get("name")
         if name in DRIVE_EFFECT_NAMES:
             continue
-        if name not in EFFECT_NAMES:
+        if name not in EFFECT_NAMES + FIGURE_EFFECT_NAMES:
             raise EffectError(f"unknown effect `{name}` (known: {', '.join(MODEL_EFFECT_NAMES)})")
         key = name if name != "wall_restitution" else f"{name}:{(effect.get('params') or {}).get('wall', '*')}"
         if key in seen and name != "surface_dent":
@@ -166,6 +171,11 @@ def resolve(params: dict) -> Physics:
                 raise EffectError("effect `wall_restitution`: `coefficient` must be below 1")
             wall = (effect.get("params") or {}).get("wall", "*")
             physics.wall_restitution[str(wall)] = e
+        elif name == "figure_restitution":
+            e = _param(effect, "coefficient", positive=True)
+            if e >= 1.0:
+                raise EffectError("effect `figure_restitution`: `coefficient` must be below 1")
+            physics.figure_restitution = e
     if drag_coefficient is not None:
         # After the loop: the lift correction needs the final rolling resistance.
         physics.ball_blunt_drag = BLUNT_DRAG

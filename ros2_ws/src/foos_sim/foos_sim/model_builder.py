@@ -413,7 +413,9 @@ class TableModelBuilder:
                     e = self.physics.wall_restitution.get(geom, self.physics.wall_restitution.get("*", p["walls"]["restitution"]))
                     mu, team = float(p["walls"]["friction"]), -1
                 else:
-                    e, mu = float(p["figures"]["restitution"]), float(p["figures"]["friction"])
+                    e = self.physics.figure_restitution
+                    e = float(p["figures"]["restitution"]) if e is None else e
+                    mu = float(p["figures"]["friction"])
                     team = TEAMS.index(figure_team(geom))
                 pair = _sub(contact, "pair", geom1="ball", geom2=geom, condim=3, friction=_fmt(mu, mu, 0, 0, 0),
                             solref=self.solref(restitution=e), solimp=self.solimp)
