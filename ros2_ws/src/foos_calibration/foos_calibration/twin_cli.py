@@ -34,6 +34,7 @@ from foos_vision.render import (
 )
 from foos_vision.scenarios import StateReplay, detections_at
 
+from .figure_contacts import JointTrack, for_game
 from .tracks import DataError, analyse, validate
 from .twin import TablePrediction, predict, predicted_at, restarts, restarts_in
 
@@ -142,7 +143,10 @@ def film(args: argparse.Namespace, progress) -> str:
     if end <= begin:
         raise VisionError(f"--start {args.start:g} s is past the recording's last detection ({t[-1] - t[0]:.1f} s)")
     progress("cutting the measurement into free stretches (calibration's tracks and segments)")
-    shown = restarts_in(restarts(analyse(t, xy, geometry)), begin, end)
+    # A game's stretches end at figure contacts, as calibration cuts them: the figures posed from the joint
+    # states, or, without them, sudden velocity changes near the rod lines.
+    joints = JointTrack(recorded.joint_t, recorded.joint_position) if recorded.joint_t is not None else None
+    shown = restarts_in(restarts(analyse(t, xy, geometry, figures=for_game(tables[0], joints))), begin, end)
     predictions = []
     for label, params in zip(labels, tables):
         progress(f"{label}: restarting the simulation at {len(shown)} free stretches (MuJoCo)")
