@@ -61,3 +61,21 @@ def test_no_rolling_data(ros2_run, tmp_path):
         t = np.arange(1200) / 120
         write_ball_detections(w, t, np.tile([0.1, 0.2, BALL_Z], (1200, 1)) + np.random.default_rng(0).normal(0, 0.0015, (1200, 3)))
     one_line_error(ros2_run("calibrate", str(tmp_path / "still"), "--out", str(tmp_path / "o")), "too little rolling data")
+
+
+def _rolls(n: int = 1200) -> np.ndarray:
+    """A ball rolling at 0.5 m/s along x, with camera noise: detections that would be fine on a good clock."""
+    k = np.arange(n)
+    x = -0.3 + (k % 120) / 120 * 0.5
+    return np.stack([x, 0 * x + 0.1, 0 * x + BALL_Z], axis=1) + np.random.default_rng(1).normal(0, 0.0015, (n, 3)) * [1, 1, 0]
+
+
+def test_a_broken_time_base_is_said_not_fitted(ros2_run, tmp_path):
+    """Stamps in milliseconds read as seconds, and stamps of whole arrival batches: said, not fitted."""
+    with BagWriter(tmp_path / "ms") as w:
+        write_ball_detections(w, np.arange(1200) / 120 * 1000, _rolls())
+    one_line_error(ros2_run("calibrate", str(tmp_path / "ms"), "--out", str(tmp_path / "o1")), "broken time base")
+    with BagWriter(tmp_path / "batches") as w:
+        write_ball_detections(w, np.floor(np.arange(1200) / 120 * 10) / 10, _rolls())  # 12 frames share each stamp
+    one_line_error(ros2_run("calibrate", str(tmp_path / "batches"), "--out", str(tmp_path / "o2")), "broken time base")
+    assert not (tmp_path / "o1").exists() and not (tmp_path / "o2").exists()

@@ -10,7 +10,14 @@ import pytest
 
 from foos_calibration import games
 from foos_calibration import generate as gen
-from foos_calibration.figure_contacts import FigureModel, JointTrack, PosedFigures, RodLines, for_game
+from foos_calibration.figure_contacts import (
+    FigureModel,
+    JointTrack,
+    PosedFigures,
+    RodLines,
+    _spread,
+    for_game,
+)
 from foos_calibration.fitting import SegmentBatch, fit
 from foos_calibration.select import free_indices
 from foos_calibration.surrogate import EFFECT_PARAMS
@@ -177,8 +184,6 @@ def test_joint_states_calibration_cannot_use_are_refused():
 
 def test_a_stretch_shorter_than_the_window_keeps_its_length():
     """A stretch between two figure contacts can be a few frames long (bench_calibration --games crashed on one)."""
-    from foos_calibration.figure_contacts import _spread  # the one helper every window over contacts goes through
-
     short = np.zeros(5, dtype=bool)
     short[2] = True
     assert _spread(short, 6).tolist() == [True] * 5

@@ -23,6 +23,7 @@ STOP_SPEED = 0.05  # m/s; slower than this the ball is at rest, not rolling
 MIN_SEGMENT = 0.25  # s
 MAX_SEGMENT = 1.5  # s, fitting pieces (each gets its own initial state)
 MIN_DETECTIONS = 200
+FRAME_PERIOD = (0.0005, 0.1)  # s: the median interval of a camera's detections (2000 to 10 frames/s)
 OUTLIER_WINDOW = 0.5  # s: a cubic in t follows a rolling ball to well under the noise over this long
 OUTLIER_SIGMAS = 4.0
 OUTLIER_FLOOR = 0.003  # m: a detection off its neighbours' smooth path by more than this (and 4 sigma) is dropped
@@ -101,6 +102,13 @@ def validate(t: np.ndarray, position: np.ndarray, frame_id: str) -> tuple[np.nda
     if np.any(np.diff(t) < 0):
         raise DataError("detection timestamps go backwards")
     keep = np.concatenate([[True], np.diff(t) > 1e-6])  # a repeated stamp is a duplicate message
+    if keep.sum() < len(t) / 2:
+        raise DataError(f"a broken time base: {len(t) - int(keep.sum())} of {len(t)} detections repeat the stamp before them "
+                        "(stamps of arrival batches, or a clock that stood still?)")
+    period = float(np.median(np.diff(t[keep])))
+    if not FRAME_PERIOD[0] <= period <= FRAME_PERIOD[1]:
+        raise DataError(f"a broken time base: the detections' median interval is {period:.3g} s, no camera's frame period "
+                        f"({FRAME_PERIOD[0] * 1000:g}-{FRAME_PERIOD[1] * 1000:g} ms); stamps in the wrong unit?")
     return t[keep], position[keep, :2]
 
 
