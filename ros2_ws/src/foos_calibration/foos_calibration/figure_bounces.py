@@ -25,11 +25,11 @@ import copy
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from foos_core.names import JOINT_NAMES, TEAMS
 from foos_sim.simulation import TableSimulation
 
+from .bounces import spline_at, spline_minimum
 from .figure_contacts import FigureModel, JointTrack
 from .figure_kinks import Kink
 
@@ -40,6 +40,7 @@ MIN_APPROACH = 0.3  # m/s of the ball toward the figure, relative to it
 MAX_VERTICAL = 0.5  # |n_z| above this: the figure met the ball from above or below
 BEFORE, AFTER = 0.025, 0.05  # s of each replay window before and after the touch
 GRID = np.round(np.arange(0.15, 0.951, 0.1), 3)
+FINE_POINTS = 801  # where each window's spline minimum is read: 0.001 apart over GRID
 MIN_BOUNCES = 8
 MIN_EVIDENCE = 30.0
 MIN_CHANGE = 0.08  # a coefficient closer than this to the nominal one is not named
@@ -158,15 +159,6 @@ def replay_errors(bounces: list[FigureBounce], t: np.ndarray, xy: np.ndarray, jo
     return rss, counts
 
 
-def _minimum(total: np.ndarray, grid: np.ndarray = GRID) -> float:
-    fine = np.linspace(grid[0], grid[-1], 801)
-    return float(fine[np.argmin(CubicSpline(grid, total)(fine))])
-
-
-def _at(total: np.ndarray, e: float, grid: np.ndarray = GRID) -> float:
-    return float(CubicSpline(grid, total)(e))
-
-
 def find_figure_restitution(kinks: list[Kink], t: np.ndarray, xy: np.ndarray, figures: FigureModel, joints: JointTrack,
                             params: dict, noise: float) -> FigureRestitution:
     """figure_restitution from a game's figure bounces (see the module's docstring). `t` on the encoders'
@@ -198,7 +190,7 @@ def find_figure_restitution(kinks: list[Kink], t: np.ndarray, xy: np.ndarray, fi
     total = rss.sum(axis=0)
     # The coefficient: the median of the windows' own best restitutions (robust to the few a replay gets wrong);
     # the held-out evidence: the other fold's capped error at it against the nominal one.
-    own = np.array([_minimum(row) for row in rss])
+    own = np.array([spline_minimum(row, GRID, FINE_POINTS) for row in rss])
     fitted = float(np.median(own))
     folds = np.arange(len(rss)) % 2
     drops, fold_fits = [], []
@@ -206,7 +198,7 @@ def find_figure_restitution(kinks: list[Kink], t: np.ndarray, xy: np.ndarray, fi
         e_k = float(np.median(own[folds == k]))
         test = rss[folds != k].sum(axis=0)
         fold_fits.append(e_k)
-        drops.append(_at(test, nominal) - _at(test, e_k))
+        drops.append(spline_at(test, nominal, GRID) - spline_at(test, e_k, GRID))
     rng = np.random.default_rng(0)
     boot = [float(np.median(own[rng.integers(0, len(own), len(own))])) for _ in range(500)]
     interval = [round(float(v), 3) for v in np.percentile(boot, [2.5, 97.5])]
@@ -215,7 +207,7 @@ def find_figure_restitution(kinks: list[Kink], t: np.ndarray, xy: np.ndarray, fi
         "held_out_error_drop_noise_variances": round(float(sum(drops)), 1),
         "per_fold": [round(float(d), 1) for d in drops],
         "fold_coefficients": [round(float(e), 3) for e in fold_fits],
-        "in_sample_error_drop_noise_variances": round(float(_at(total, nominal) - _at(total, fitted)), 1),
+        "in_sample_error_drop_noise_variances": round(float(spline_at(total, nominal, GRID) - spline_at(total, fitted, GRID)), 1),
         "variance_unit": "each replay window's own best residual variance",
         "bounces": int(len(rss)),
         "ci95": interval,

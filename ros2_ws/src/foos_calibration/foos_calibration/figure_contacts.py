@@ -288,7 +288,9 @@ class PosedFigures:
         return near
 
 
-def for_game(params: dict, joints: JointTrack | None) -> PosedFigures | RodLines:
-    """What tracks.analyse(..., figures=) takes: figures posed by the joint states, or the rod lines without them."""
-    figures, geometry = FigureModel(params), TableGeometry.from_params(params)
+def for_game(params: dict, joints: JointTrack | None, figures: FigureModel | None = None) -> PosedFigures | RodLines:
+    """What tracks.analyse(..., figures=) takes: figures posed by the joint states, or the rod lines without them.
+    `figures`: the FigureModel of `params` where the caller has built it already (it builds a MuJoCo model)."""
+    figures = figures if figures is not None else FigureModel(params)
+    geometry = TableGeometry.from_params(params)
     return PosedFigures(figures, joints, geometry) if joints is not None else RodLines(figures, geometry)

@@ -25,6 +25,7 @@ from .figure_kinks import detection_noise, find_kinks
 @dataclass
 class GameBall:
     t: np.ndarray  # detection stamps at capture (the camera latency, where named, taken off)
+    figure_model: FigureModel  # the figures of the table, for the contacts that cut the ball's tracks
     camera: CameraClock
     figures: FigureRestitution
 
@@ -47,4 +48,4 @@ def camera_and_figures(t: np.ndarray, xy: np.ndarray, geometry: TableGeometry, p
         kinks = find_kinks(t, xy, geometry, noise)
     progress("fitting the figures' restitution on MuJoCo replays of the figure bounces")
     figures = find_figure_restitution(kinks, t, xy, figure_model, joints, params, noise)
-    return GameBall(t, camera, figures)
+    return GameBall(t, figure_model, camera, figures)

@@ -140,7 +140,7 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
     game = camera_and_figures(t, xy, geometry, params, joints, options.seed, progress) if joints is not None else None
     if game is not None:
         t = game.t  # the detections at capture time (a named camera latency taken off)
-    measured = analyse(t, xy, geometry, figures=for_game(params, joints))
+    measured = analyse(t, xy, geometry, figures=for_game(params, joints, game.figure_model if game is not None else None))
     if len(measured.segments) < MIN_SEGMENTS:
         raise DataError(f"too little rolling data: {len(measured.segments)} rolling segments of at least 0.25 s "
                         f"(need {MIN_SEGMENTS}); record more rolls")

@@ -334,9 +334,6 @@ def _revise(batch, held, chosen, current, base_rss, base_thetas, theta0, unit2, 
         rss, thetas = held.score(tuple(names), full.theta)
         return full, rss, thetas
 
-    def scale2_of(full):
-        return unit2  # the camera's scatter, never the misfit (measurement_scatter)
-
     def worse_than_current(sets, scale2) -> dict[tuple, float]:
         """Noise variances each set of names, refitted, would leave over the current set (one linearised step)."""
         if not sets:
@@ -346,7 +343,7 @@ def _revise(batch, held, chosen, current, base_rss, base_thetas, theta0, unit2, 
 
     for _ in range(4):  # each pass either changes the set or ends
         changed = False
-        scale2 = scale2_of(current)
+        scale2 = unit2  # the camera's scatter, never the misfit (measurement_scatter)
         named = [c for c in chosen if c in SMOOTH]  # a dent was judged on the rolls over it
         rests = {name: [c for c in chosen if c != name] for name in named}
         swaps = {(name, other): [other if c == name else c for c in chosen]
