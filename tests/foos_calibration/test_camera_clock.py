@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import pytest
 
-from foos_bag import read_ball_detections, read_joint_states
+from foos_bag import read_ball_detections
 from foos_calibration.camera_clock import find_camera_latency
 from foos_calibration.figure_contacts import FigureModel, JointTrack
 from foos_calibration.figure_kinks import detection_noise, find_kinks
+from foos_calibration.game_data import read_encoders
 from foos_core.table_geometry import TableGeometry
-from foos_core.table_params import FAST_PARAMS_FILE, load_params
+from foos_core.table_params import DEFAULT_PARAMS_FILE, load_params
 
 # The generator's camera frames take the state at the end of the 2 ms physics step they fall in: about 1 ms
 # of apparent negative latency with nothing hidden (measured -2 ms at seeds 1-3), so the tolerance is 5 ms.
@@ -18,15 +19,15 @@ TOLERANCE = 0.005
 
 @pytest.fixture(scope="module")
 def figures():
-    return FigureModel(load_params(FAST_PARAMS_FILE))
+    return FigureModel(load_params(DEFAULT_PARAMS_FILE))
 
 
 def latency_of(bag, figures):
-    ball, joints = read_ball_detections(bag), read_joint_states(bag)
+    ball, encoders = read_ball_detections(bag), read_encoders(bag)
     t, xy = ball.t, ball.position[:, :2]
     noise = detection_noise(t, xy)
-    kinks = find_kinks(t, xy, TableGeometry.from_params(load_params(FAST_PARAMS_FILE)), noise)
-    return find_camera_latency(kinks, figures, JointTrack.from_joint_states(joints.t, joints.names, joints.position), noise)
+    kinks = find_kinks(t, xy, TableGeometry.from_params(load_params(DEFAULT_PARAMS_FILE)), noise)
+    return find_camera_latency(kinks, figures, JointTrack(encoders.t, encoders.position), noise)
 
 
 def test_a_hidden_camera_latency_is_found_and_none_where_none_is_hidden(ros2_run, tmp_path, figures):

@@ -13,21 +13,21 @@ from foos_calibration.figure_bounces import find_figure_restitution
 from foos_calibration.figure_contacts import FigureModel, JointTrack
 from foos_calibration.figure_kinks import detection_noise, find_kinks
 from foos_core.table_geometry import TableGeometry
-from foos_core.table_params import FAST_PARAMS_FILE, load_params
+from foos_core.table_params import DEFAULT_PARAMS_FILE, load_params
 
-# The replays fit high at high restitution (0.88 for 0.75 hidden at seed 1, 0.53 for 0.5): the tolerance.
+# The replays fit high at high restitution (0.88 for 0.75 hidden at seed 1 on one machine, 0.53 for 0.5): the tolerance.
 TOLERANCE = 0.15
 
 
 @pytest.fixture(scope="module")
 def nominal():
-    return load_params(FAST_PARAMS_FILE)
+    return load_params(DEFAULT_PARAMS_FILE)
 
 
-def restitution_of_game(nominal: dict, hidden: float, seed: int):
+def restitution_of_game(nominal: dict, hidden: float, seed: int, duration: float = 90.0):
     table = copy.deepcopy(nominal)
     table["figures"]["restitution"] = hidden
-    game = games.play([], games.GameOptions(duration=90.0, seed=seed), params=table)
+    game = games.play([], games.GameOptions(duration=duration, seed=seed), params=table)
     t, xy = game.ball_t, game.ball_position[:, :2]
     noise = detection_noise(t, xy)
     kinks = find_kinks(t, xy, TableGeometry.from_params(nominal), noise)
@@ -36,7 +36,10 @@ def restitution_of_game(nominal: dict, hidden: float, seed: int):
 
 
 def test_a_livelier_figure_is_found(nominal):
-    found = restitution_of_game(nominal, 0.75, seed=1)
+    """120 s, as docs/calibration-games.md says the effect needs: a game is chaotic, so the same seed plays out
+    differently on another CPU's floating point, and at 90 s (seed 1) one machine named 0.88 while another fitted
+    0.764 with one fold's held-out drop at -40 noise variances (not named). At 120 s there: 0.727, 23 clean replays."""
+    found = restitution_of_game(nominal, 0.75, seed=1, duration=120.0)
     assert found.coefficient is not None and abs(found.coefficient - 0.75) <= TOLERANCE, found.block
     assert [e["name"] for e in found.effects] == ["figure_restitution"] and found.block["clean_replays"] >= 8
     assert min(found.evidence["per_fold"]) > 0 and found.evidence["ci95"][0] > 0.5

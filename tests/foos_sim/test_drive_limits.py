@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES
-from foos_core.table_params import FAST_PARAMS_FILE, load_params
+from foos_core.table_params import DEFAULT_PARAMS_FILE, load_params
 from foos_sim.drive_limits import DriveLimits, Servo, drive_limits_from_effects, predict_positions
 from foos_sim.effects import EffectError, resolve
 from foos_sim.simulation import TableSimulation
@@ -26,7 +26,7 @@ STOP_ZONE = 0.015  # m
 
 
 def table(effects, physics="fast"):
-    params = load_params(FAST_PARAMS_FILE)
+    params = load_params(DEFAULT_PARAMS_FILE)
     return TableSimulation(params={**params, "effects": effects}, physics=physics)
 
 

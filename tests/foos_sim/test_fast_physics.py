@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import foos_sim
-from foos_core.table_params import FAST_PARAMS_FILE, load_params
+from foos_core.table_params import REFERENCE_PARAMS_FILE, load_params
 from foos_sim.model_builder import PhysicsError
 from foos_sim.simulation import TableSimulation
 
@@ -124,14 +124,13 @@ def test_a_calibrated_wall_restitution_holds_per_wall(calibrated_both, physics, 
 
 
 def test_the_parameter_file_names_the_physics(tmp_path):
-    # The regulation table stays on the reference until the results downstream are redone on the fast one;
-    # the shipped fast_table.yaml names the fast physics.
+    # The regulation table runs the fast physics; the shipped reference_table.yaml names the 20 kHz reference.
     sim = TableSimulation()
-    assert sim.physics == "reference" and sim.timestep == pytest.approx(5e-5)
-    fast = TableSimulation(FAST_PARAMS_FILE)
-    assert fast.physics == "fast" and fast.timestep == pytest.approx(0.002)
-    assert TableSimulation(physics="fast").physics == "fast"
-    assert TableSimulation(FAST_PARAMS_FILE, physics="reference").physics == "reference"
+    assert sim.physics == "fast" and sim.timestep == pytest.approx(0.002)
+    reference = TableSimulation(REFERENCE_PARAMS_FILE)
+    assert reference.physics == "reference" and reference.timestep == pytest.approx(5e-5)
+    assert TableSimulation(physics="reference").physics == "reference"
+    assert TableSimulation(REFERENCE_PARAMS_FILE, physics="fast").physics == "fast"
     # The bare model is the reference unless asked: stepped by mj_step alone, only its springs bounce.
     assert foos_sim.load_model().opt.timestep == pytest.approx(5e-5)
     assert foos_sim.load_model(physics="fast").opt.timestep == pytest.approx(0.002)

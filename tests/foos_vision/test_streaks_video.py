@@ -12,6 +12,7 @@ import sys
 import numpy as np
 import pytest
 
+from foos_core.table_params import REFERENCE_PARAMS_FILE
 from foos_vision.bench import hit_during_exposure
 from foos_vision.render import read_truth
 
@@ -28,7 +29,10 @@ def shots(bag, *args: str) -> subprocess.CompletedProcess:
 @pytest.mark.timeout(900)
 def test_shots_at_25_fps_are_tracked_as_streaks(tmp_path):
     # 7 shots at 4.6-7.6 m/s, each after 0.1 s out of sight and 0.15 s rolling up to the shooter.
-    made = shots(tmp_path / "shots", "--duration", "4", "--seed", "1", "--hide-for", "0.1", "--roll-for", "0.15")
+    # Played on the 20 kHz reference, where the shots were chosen: on the fast physics seed 1 gives 14 judged fast
+    # frames, under the 15 this check needs to judge.
+    made = shots(tmp_path / "shots", "--duration", "4", "--seed", "1", "--hide-for", "0.1", "--roll-for", "0.15",
+                 "--params-file", str(REFERENCE_PARAMS_FILE))
     assert made.returncode == 0, made.stderr
     video = render(tmp_path / "shots.mp4", "--bag", str(tmp_path / "shots"), "--duration", "4", "--width", "1280",
                    "--height", "720", "--fps", "25", "--blur", "12", "--exposure", "1.0", "--ball-color", "yellow", "--visibility",

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from foos_bag import read_ball_detections
+from foos_core.table_params import REFERENCE_PARAMS_FILE
 from foos_vision.render import read_truth
 from foos_vision.video_io import VideoReader
 
@@ -28,9 +29,13 @@ def first_frame(video) -> np.ndarray:
 
 @pytest.mark.timeout(300)
 def test_an_oblique_camera_does_not_take_orange_figures_for_an_orange_ball(tmp_path):
+    # The scene is played on the 20 kHz reference, where it was chosen: on the default fast physics seed 4 plays
+    # another game, in which the tracker found 84 % of the half-visible frames (the same-colour weakness that
+    # bench_vision measures and docs/vision.md reports), under this check's 90 %.
     video = render(tmp_path / "same.mp4", "--camera", "oblique", "--width", "640", "--height", "480", "--fps", "60",
                    "--ball-color", "orange", "--home-color", "orange", "--away-color", "black", "--duration", "2.5",
-                   "--seed", "4", "--hide-every", "1.0", "--hide-for", "0.3", "--visibility", timeout=240)
+                   "--seed", "4", "--hide-every", "1.0", "--hide-for", "0.3", "--visibility",
+                   "--params-file", str(REFERENCE_PARAMS_FILE), timeout=240)
     stem = video.with_suffix("").as_posix()
     # The same first frame with foos_sim's red and blue figures has far fewer pixels of the ball's colour.
     default = render(tmp_path / "default.mp4", "--camera", "oblique", "--width", "640", "--height", "480",

@@ -26,12 +26,11 @@ import mujoco
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view as windows
 
-from foos_core.joints import MissingJointsError, joint_order, take_joints
 from foos_core.names import AXES, JOINT_NAMES, RODS, TEAMS, figure_geom_name, joint_name
 from foos_core.table_geometry import TableGeometry
 from foos_sim.model_builder import model_from_params
 
-from .tracks import DataError, contact_frames, velocity_change
+from .tracks import contact_frames, velocity_change
 
 FIGURE_ZONE = 0.005  # m: ball surface this close to a figure's (noise ~1.5 mm, encoder interpolation) is a touch
 CHANGE_WITH_JOINTS = 0.25  # m/s between the 6-frame windows either side (as at walls)
@@ -171,32 +170,13 @@ def _spread(frames: np.ndarray, half: int) -> np.ndarray:
     track shorter than the kernel: stretches between figure contacts can be.)"""
     return np.convolve(np.asarray(frames, dtype=float), np.ones(2 * half + 1))[half: half + len(frames)] > 0
 
+
 @dataclass
 class JointTrack:
     """Encoder samples: stamps (n,) and the 16 joint positions (n, 16) in JOINT_NAMES order."""
 
     t: np.ndarray
     q: np.ndarray
-
-    @classmethod
-    def from_joint_states(cls, t: np.ndarray, names, position: np.ndarray) -> "JointTrack":
-        """From /joint_states as read by foos_bag.read_joint_states; DataError on what calibration cannot use."""
-        try:
-            order = joint_order(list(names))
-        except MissingJointsError as error:
-            raise DataError(f"/joint_states lacks the contract's joints ({error}); expected names like {JOINT_NAMES[0]}") from None
-        t = np.asarray(t, dtype=float)
-        q = take_joints(np.asarray(position, dtype=float), order)
-        if len(t) < 2:
-            raise DataError(f"/joint_states has {len(t)} message(s); need a stream of encoder samples")
-        if not np.all(np.isfinite(t)):
-            raise DataError("/joint_states stamps contain NaN or infinite values")
-        if np.any(np.diff(t) < 0):
-            raise DataError("/joint_states stamps go backwards")
-        if not np.all(np.isfinite(q)):
-            raise DataError("/joint_states positions contain NaN or infinite values (a joint missing from some messages?)")
-        keep = np.concatenate([[True], np.diff(t) > 1e-9])
-        return cls(t[keep], q[keep])
 
     def at(self, times: np.ndarray) -> np.ndarray:
         """(n, 16) joint positions interpolated at `times` (held at the ends)."""

@@ -31,7 +31,7 @@ import numpy as np
 from foos_bag import FLOAT64_MULTI_ARRAY, BagWriter, typestore, write_ball_detections, write_joint_states
 from foos_core.names import AXES, COMMAND_SIZE, JOINT_NAMES, RODS, TEAMS, command_topic
 from foos_core.table_geometry import TableGeometry
-from foos_core.table_params import FAST_PARAMS_FILE, load_params
+from foos_core.table_params import load_params
 from foos_sim.effects import EffectError
 from foos_sim.simulation import TableSimulation
 
@@ -223,7 +223,7 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
     except EffectError as error:
         raise GameError(str(error)) from None
     rng = np.random.default_rng(options.seed)
-    params = params if params is not None else load_params(FAST_PARAMS_FILE)
+    params = params if params is not None else load_params()
     params = {**params, "effects": [e for e in params.get("effects", []) or [] if e.get("name") not in DRIVE_EFFECTS]}
     sim = TableSimulation(params=params)
     hidden = HiddenDrives(effects, sim.command_limits)

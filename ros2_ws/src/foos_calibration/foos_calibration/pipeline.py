@@ -237,6 +237,10 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
                          "predicted by the others (30), or where too few cross it, on alternate frames (60)",
             "segments": "rolling segments, and the slide after each wall bounce with its slip fitted per segment",
             "horizons_s": list(HORIZONS),
+            "physics": "wall bounces and the 1 s predictions roll the ball-only table on the 20 kHz reference physics, whose "
+                       "mj_step alone is the whole physics, so mujoco.rollout runs them on threads; the fast physics needs its "
+                       "impact rule between steps. Figure bounces replay the whole table on the fast physics, as the "
+                       "simulation runs it. The calibrated file runs on either (solver.physics)",
             "calibrated_predictions": "cross-fitted: each start predicted by the model fitted on the other fold of segments",
             "unexplained": f"a place (all the rolling data, a cell of the field, a speed band, the first 0.3 s after a wall bounce or a "
                            f"figure contact) whose residual RMS per axis is over {FAR_ABOVE:g} x the detection noise, or held-out "

@@ -16,7 +16,7 @@ from .yaml_files import read_mapping
 
 PARAMS_DIR = Path(__file__).resolve().parent / "params"
 DEFAULT_PARAMS_FILE = PARAMS_DIR / "regulation_table.yaml"
-FAST_PARAMS_FILE = PARAMS_DIR / "fast_table.yaml"  # the regulation table on the fast physics
+REFERENCE_PARAMS_FILE = PARAMS_DIR / "reference_table.yaml"  # the regulation table on the 20 kHz reference physics
 
 
 class ParamsError(ValueError):
