@@ -7,19 +7,22 @@ import json
 import numpy as np
 import pytest
 
-from foos_policy.metrics import COLUMNS, SMOOTHED
+from foos_policy.metrics import CLOCK_COLUMNS, COLUMNS, SMOOTHED
+from foos_policy.policies import algo_of
 
 from .helpers import one_line_error
 
 
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory, ros_env):
-    """A tiny SAC run through the real CLI (the smoke test of the whole training pipeline)."""
+    """A tiny SAC run through the real CLI (the smoke test of the whole training pipeline): the default learner
+    (SBX), the skill reward and the curriculum, whose three stages all come within 1000 steps."""
     import subprocess
 
     out = tmp_path_factory.mktemp("train")
     proc = subprocess.run(
-        ["ros2", "run", "foos_policy", "train", "--algo", "sac", "--steps", "300", "--learning-starts", "100",
+        ["ros2", "run", "foos_policy", "train", "--algo", "sac", "--steps", "1000", "--learning-starts", "100",
+         "--train-freq", "16", "--gradient-steps", "16", "--reward", "skill", "--curriculum",
          "--reset", "hardened", "--opponent", "scripted", "--seed", "3", "--out", str(out), "--checkpoint-every", "200"],
         capture_output=True, text=True, timeout=240, env=ros_env,
     )
@@ -34,18 +37,24 @@ def test_train_writes_model_metrics_figures_checkpoints_and_tensorboard(trained)
     assert (out / f"{name}.zip").is_file()
     with open(out / "metrics.csv") as f:
         rows = list(csv.DictReader(f))
-    assert rows, "no finished episode in 300 steps"
-    assert tuple(rows[0]) == COLUMNS
+    assert rows, "no finished episode in 1000 steps"
+    assert tuple(rows[0]) == COLUMNS + CLOCK_COLUMNS
+    # the curriculum's stages in order, ending on the task asked for
+    stages = [r["stage"] for r in rows]
+    assert stages[0] == "resting/none" and stages[-1] == "hardened/scripted", stages
+    assert all(float(b["wall_s"]) >= float(a["wall_s"]) for a, b in zip(rows, rows[1:]))
     returns = np.array([float(r["return"]) for r in rows])
     # the paper's smoothing: Return50 is the running mean of the last (up to) 50 returns
     assert float(rows[-1]["Return50"]) == pytest.approx(returns[-50:].mean(), rel=1e-4)
     assert {float(r["win"]) for r in rows} <= {0.0, 1.0}
-    for png in ("return50", "eplen50", "winrate50", "loserate50", "termgoal50", "return_vs_length"):
+    for png in ("return50", "eplen50", "winrate50", "loserate50", "termgoal50", "return_vs_length", "learning_curve"):
         assert (out / "figures" / f"{png}.png").stat().st_size > 1000
     assert list((out / "checkpoints").glob("*.zip"))
     assert list((out / "tb").rglob("events.out.tfevents.*"))
     run = json.loads((out / "run.json").read_text())
-    assert run["steps_done"] == 300 and run["algo"] == "sac"
+    assert 1000 <= run["steps_done"] < 1000 + 16 and run["algo"] == "sac"  # rollouts come in rounds of --train-freq
+    assert (run["learner"], run["reward"], run["curriculum"]) == ("sbx", "skill", True)
+    assert algo_of(out / f"{name}.zip") == ("sbx", "sac")
     assert "it/s" in proc.stderr or "step" in proc.stderr  # the progress bar
 
 
@@ -75,6 +84,24 @@ def test_self_play_against_a_frozen_policy(trained, run_cli, tmp_path):
     assert json.loads((tmp_path / "selfplay.json").read_text())["opponent"] == "selfplay"
 
 
+@pytest.mark.timeout(300)
+def test_the_torch_learner_still_trains_and_its_policy_plays(run_cli, tmp_path):
+    """--learner sb3 (stable-baselines3 / sb3-contrib on torch, the paper's) beside the default SBX: a TQC zip that
+    evaluate loads by its recorded class."""
+    out = tmp_path / "sb3"
+    proc = run_cli("train", "--learner", "sb3", "--algo", "tqc", "--steps", "150", "--learning-starts", "100",
+                   "--train-freq", "1", "--gradient-steps", "1", "--reset", "hardened", "--opponent", "none",
+                   "--out", str(out), "--no-progress")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    model = out / "tqc_hardened_none_s0.zip"
+    assert algo_of(model) == ("sb3", "tqc")
+    run = json.loads((out / "run.json").read_text())
+    assert (run["learner"], run["train_freq"], run["gradient_steps"]) == ("sb3", 1, 1)
+    proc = run_cli("evaluate", "--policy", str(model), "--reset", "hardened", "--opponent", "none", "--episodes", "1",
+                   "--no-progress")
+    assert proc.returncode == 0 and "1 episodes" in proc.stdout, proc.stderr
+
+
 def test_metrics_smoothing_and_reader(tmp_path):
     from foos_policy.metrics import MetricsWriter, read_metrics
 
@@ -102,7 +129,7 @@ def test_bad_inputs_give_one_line_errors(run_cli, tmp_path):
     assert "does not exist" in one_line_error(run_cli("evaluate", "--policy", str(tmp_path / "missing.zip"), "--episodes", "1"))
     corrupt = tmp_path / "corrupt.zip"
     corrupt.write_bytes(b"not a zip at all")
-    assert "not a saved SB3 model" in one_line_error(run_cli("evaluate", "--policy", str(corrupt), "--episodes", "1"))
+    assert "not a saved SB3/SBX model" in one_line_error(run_cli("evaluate", "--policy", str(corrupt), "--episodes", "1"))
     assert "no policy named" in one_line_error(run_cli("evaluate", "--policy", "no_such_policy", "--episodes", "1"))
     assert "no bag" in one_line_error(run_cli("evaluate_bag", str(tmp_path / "nope")))
     not_a_bag = tmp_path / "empty_dir"

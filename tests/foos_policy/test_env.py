@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 from foos_core.names import JOINT_NAMES
+from foos_policy.curriculum import stage_at, stages
 from foos_policy.env import FoosballEnv
 from foos_policy.observation import OBS_SIZE, action_to_command, command_to_action, observe
-from foos_policy.tasks import HardenedPlacement, PaperReward, PaperServe
+from foos_policy.tasks import HardenedPlacement, PaperReward, PaperServe, SkillReward
 
 
 @pytest.fixture(scope="module")
@@ -160,3 +161,51 @@ def test_lifted_opponent_starts_with_every_away_rod_horizontal():
     for i, name in enumerate(JOINT_NAMES):
         expected = -np.pi / 2 if name.startswith("away_") and name.endswith("_rotate") else 0.0
         assert q[i] == pytest.approx(expected), name
+
+
+def test_skill_reward_is_potential_based_progress_plus_touch_and_goals():
+    r = SkillReward()
+    half = 0.6
+    # the progress term is signed: a ball sent forward and back again earns nothing net
+    path = [0.0, 0.1, 0.25, 0.05, -0.1]
+    total = sum(r(a, b, None, np.zeros(8), half) for a, b in zip(path, path[1:]))
+    assert total == pytest.approx(5.0 * (path[-1] - path[0]))
+    assert r(0.0, 0.0, None, np.zeros(8), half, first_touch=True) == pytest.approx(0.5)
+    assert r(0.0, 0.0, "home", np.zeros(8), half) == pytest.approx(10.0)
+    assert r(0.0, 0.0, "away", np.zeros(8), half) == pytest.approx(-10.0)
+    # no control cost: the paper's is 0.03 at full action, noise next to these returns
+    assert r(0.0, 0.1, None, np.full(8, 20.0), half) == r(0.0, 0.1, None, np.zeros(8), half)
+
+
+def test_the_skill_env_pays_the_first_touch_once():
+    env = FoosballEnv("paper", "none", reward="skill")
+    env.reset(seed=0)
+    env.sim.reset(ball_position=(0.0, 0.275), ball_velocity=(0.0, 0.0))
+    kick = np.zeros(8)
+    kick[7] = 20.0
+    rewards, ys = [], [0.275]
+    for _ in range(4):
+        obs, reward, *_ = env.step(kick)
+        rewards.append(reward)
+        ys.append(float(env.sim.ball_position()[1]))
+    assert env.stats.touches_home >= 1
+    bonus = [reward - 5.0 * (b - a) for reward, a, b in zip(rewards, ys, ys[1:])]
+    assert sorted(np.round(bonus, 6)) == [0.0, 0.0, 0.0, 0.5], bonus
+
+
+def test_a_curriculum_ends_on_the_task_and_set_task_changes_the_next_episode():
+    plain = stages("hardened", "scripted", enabled=False)
+    assert [(s.reset, s.opponent) for s in plain] == [("hardened", "scripted")]
+    course = stages("hardened", "scripted", enabled=True)
+    assert [(s.reset, s.opponent) for s in course] == [("resting", "none"), ("hardened", "none"), ("hardened", "scripted")]
+    assert stage_at(course, 0.0).reset == "resting" and stage_at(course, 0.2).opponent == "none"
+    assert stage_at(course, 0.5) == stage_at(course, 1.5) == course[-1]
+
+    env = FoosballEnv("hardened", "scripted")
+    env.set_task("resting", "none")
+    env.reset(seed=3)
+    assert np.linalg.norm(env.sim.ball_velocity()[:2]) == 0.0 and env.stats.task == "resting/none"
+    assert env.opponent.act(np.zeros(36)) is None  # the away rods stand still
+    env.set_task("hardened", "scripted")
+    env.reset(seed=3)
+    assert env.stats.task == "hardened/scripted" and env.opponent.act(env._observe("away")) is not None

@@ -11,7 +11,7 @@ rod-ball touch is counted: the simulation counts the touches of each team's figu
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Optional
 
 import gymnasium as gym
@@ -21,7 +21,7 @@ from foos_core.names import COMMAND_SIZE
 from foos_sim.simulation import TableSimulation
 
 from .observation import ACTION_LIMIT, OBS_SIZE, action_to_command, observe
-from .tasks import PaperReward, make_opponent, make_reset
+from .tasks import make_opponent, make_reset, make_reward
 
 
 @dataclass
@@ -34,7 +34,7 @@ class EnvConfig:
     stagnant_speed: float = 0.05        # m/s, planar ball speed under which the ball counts as stagnant
     stagnant_steps: int = 50            # control steps (1 s at 50 Hz) of stagnation that end an episode
     params_file: Optional[str] = None
-    reward: PaperReward = field(default_factory=PaperReward)
+    reward: str = "paper"               # paper | skill (foos_policy.tasks.REWARDS)
 
 
 @dataclass
@@ -49,6 +49,7 @@ class EpisodeStats:
     touches_away: int = 0
     last_home_touch_y: Optional[float] = None
     final_y: float = 0.0
+    task: str = ""                      # reset/opponent the episode was played on
 
     def summary(self) -> dict[str, Any]:
         touched = self.touches_home > 0
@@ -66,6 +67,7 @@ class EpisodeStats:
             "goal_after_touch": float(self.goal == "home" and touched),
             "goal_without_touch": float(self.goal == "home" and not touched),
             "progress_after_touch": float(progress),
+            "task": self.task,
         }
 
 
@@ -82,7 +84,7 @@ class FoosballEnv(gym.Env):
         self.sim = TableSimulation(cfg.params_file)
         self.reset_task = make_reset(cfg.reset)
         self.opponent = make_opponent(cfg.opponent, self.sim, cfg.opponent_policy)
-        self.reward_fn = cfg.reward
+        self.reward_fn = make_reward(cfg.reward)
         if not cfg.control_rate > 0 or 1.0 / cfg.control_rate < self.sim.timestep:
             raise ValueError(f"control_rate {cfg.control_rate} Hz is not within the {1 / self.sim.timestep:.0f} Hz physics")
         self.dt = 1.0 / cfg.control_rate
@@ -100,7 +102,7 @@ class FoosballEnv(gym.Env):
         initial_joints = getattr(self.opponent, "initial_joint_positions", None)
         self.sim.reset(ball_position=position, ball_velocity=velocity,
                        joint_positions=initial_joints() if initial_joints else None)
-        self.stats = EpisodeStats(final_y=float(position[1]))
+        self.stats = EpisodeStats(final_y=float(position[1]), task=f"{self.config.reset}/{self.config.opponent}")
         self._stagnant_count = 0
         return self._observe("home"), {}
 
@@ -114,10 +116,12 @@ class FoosballEnv(gym.Env):
             self.sim.set_command("away", action_to_command("away", away, self.sim.command_limits))
 
         y_before = float(self.sim.ball_position()[1])
+        touched_before = self.stats.touches_home > 0
         goal = self._advance()
         y_after = float(self.sim.ball_position()[1])
         unstable = not self.sim.state_is_finite()
-        reward = self.reward_fn(y_before, y_after, goal, a, self.sim.half_length)
+        first_touch = not touched_before and self.stats.touches_home > 0
+        reward = self.reward_fn(y_before, y_after, goal, a, self.sim.half_length, first_touch=first_touch)
 
         speed = float(np.hypot(*self.sim.ball_velocity()[:2]))
         self._stagnant_count = self._stagnant_count + 1 if speed < self.config.stagnant_speed else 0
@@ -136,6 +140,15 @@ class FoosballEnv(gym.Env):
                 info["episode_stats"]["unstable"] = 1.0
         obs = self._observe("home") if not unstable else np.zeros(OBS_SIZE, np.float32)
         return obs, reward, terminated, truncated, info
+
+    def set_task(self, reset: Optional[str] = None, opponent: Optional[str] = None) -> None:
+        """Change the serve or the opponent from the next episode on (a curriculum's stages)."""
+        if reset is not None and reset != self.config.reset:
+            self.reset_task = make_reset(reset)
+            self.config.reset = reset
+        if opponent is not None and opponent != self.config.opponent:
+            self.opponent = make_opponent(opponent, self.sim, self.config.opponent_policy)
+            self.config.opponent = opponent
 
     # --- internals ------------------------------------------------------------------------------
     def _observe(self, team: str) -> np.ndarray:

@@ -36,6 +36,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="evaluate", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--policy", help="zero | random | scripted | shipped NAME | PATH.zip")
     add_task_arguments(p)
+    p.add_argument("--params-file", default=None,
+                   help="the table to play on (default the nominal table on the fast physics); e.g. foos_core's "
+                        "params/reference_table.yaml (the 20 kHz reference) or a calibrate run's calibrated_table.yaml, "
+                        "to measure how a policy transfers")
     p.add_argument("--episodes", type=int, default=100, help="number of episodes (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the episode set (default 0)")
     p.add_argument("--out", default=None, help="JSON file to write (default: print only)")
@@ -51,7 +55,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def evaluate(args) -> dict:
-    env = make_env(args.reset, args.opponent, args.opponent_policy)
+    env = make_env(args.reset, args.opponent, args.opponent_policy, params_file=args.params_file)
     policy = make_policy(args.policy, env.sim.params, env.sim.command_limits, seed=args.seed)
     start = time.time()
     results = run_episodes(env, policy.predict, episode_seeds(args.seed, args.episodes), progress=not args.no_progress,
@@ -59,6 +63,7 @@ def evaluate(args) -> dict:
     wall = time.time() - start
     return summarize(results, extra={
         "policy": args.policy, "reset": args.reset, "opponent": args.opponent, "seed": args.seed,
+        "params_file": args.params_file, "physics": env.sim.physics,
         "control_rate_hz": 1.0 / env.dt, "max_steps": env.config.max_steps, "wall_s": round(wall, 1),
         "command": "evaluate " + " ".join(sys.argv[1:]),
     })

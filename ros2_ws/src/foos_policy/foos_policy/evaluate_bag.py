@@ -31,6 +31,7 @@ the bag's duration with that policy on --team, and tests whether the home goal r
 Examples:
   ros2 run foos_policy evaluate_bag game_bag
   ros2 run foos_policy evaluate_bag game_bag --out stats.json --compare-policy sac_hardened_scripted_s0 --seed 0
+  ros2 run foos_policy evaluate_bag game_bag --compare-policy sac_hardened_scripted_s0 --compare-opponent scripted
 """
 
 
@@ -41,6 +42,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--params-file", default=None, help="table parameter file of the recorded table (default nominal)")
     p.add_argument("--compare-policy", default=None, help="also play this policy in-process for the same duration and compare")
     p.add_argument("--team", choices=TEAMS, default="home", help="team of --compare-policy (default home)")
+    p.add_argument("--compare-opponent", default=None,
+                   help="the policy of the other team in the in-process game, as its policy_node played in the bag "
+                        "(e.g. scripted; default: that team's rods stand still)")
     p.add_argument("--seed", type=int, default=0, help="serve seed of the in-process game (default 0)")
     return p.parse_args(argv)
 
@@ -67,7 +71,9 @@ def evaluate_bag(args) -> dict:
     stats["goal_topic"] = has_goals
     if args.compare_policy:
         policy = make_policy(args.compare_policy, params, command_limits(params), seed=args.seed)
-        in_process = play_game(policy, stats["duration_s"], seed=args.seed, team=args.team, params_file=args.params_file)
+        opponent = make_policy(args.compare_opponent, params, command_limits(params), seed=args.seed + 1) if args.compare_opponent else None
+        in_process = play_game(policy, stats["duration_s"], seed=args.seed, team=args.team, opponent=opponent,
+                               params_file=args.params_file)
         stats["in_process"] = in_process
         stats["comparison"] = compare_games(stats, in_process)
     return stats
@@ -85,7 +91,7 @@ def main(argv=None) -> int:
         c = stats["comparison"]
         print(f"in-process {c['duration_b_s']:.1f} s: goals home {c['home_goals_b']} - away {c['away_goals_b']}, touches home "
               f"{c['home_touches_b']} (bag: {c['home_goals_a']} - {c['away_goals_a']}, {c['home_touches_a']}); p goals "
-              f"{c['home_goals_p_value']:.3f}, p touches {c['home_touches_p_value']:.3f}: "
+              f"{c['home_goals_p_value']:.3f}, p goals against {c['away_goals_p_value']:.3f}, p touches {c['home_touches_p_value']:.3f}: "
               f"{'consistent' if c['consistent'] else 'NOT consistent'}")
     return 0
 

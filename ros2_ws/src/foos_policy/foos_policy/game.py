@@ -154,10 +154,11 @@ def _rate_test(count_a: int, count_b: int, time_a: float, time_b: float) -> floa
 
 
 def compare_games(a: dict, b: dict, alpha: float = 0.01) -> dict:
-    """Whether two games agree: home goals and home touches per unit time (Poisson rate tests) and the
-    home share of goals (their Wilson intervals overlap)."""
+    """Whether two games agree: goals for and against and home touches per unit time (Poisson rate tests)
+    and the home share of goals (their Wilson intervals overlap)."""
     ta, tb = a["duration_s"], b["duration_s"]
     goals_p = _rate_test(a["goals_home"], b["goals_home"], ta, tb)
+    against_p = _rate_test(a["goals_away"], b["goals_away"], ta, tb)
     touches_p = _rate_test(a["touches_home"], b["touches_home"], ta, tb)
     ci_a, ci_b = a.get("home_goal_share_ci95"), b.get("home_goal_share_ci95")
     share_overlap = True if not (ci_a and ci_b) else (ci_a[0] <= ci_b[1] and ci_b[0] <= ci_a[1])
@@ -166,8 +167,9 @@ def compare_games(a: dict, b: dict, alpha: float = 0.01) -> dict:
         "away_goals_a": a["goals_away"], "away_goals_b": b["goals_away"],
         "home_touches_a": a["touches_home"], "home_touches_b": b["touches_home"],
         "duration_a_s": ta, "duration_b_s": tb,
-        "home_goals_p_value": goals_p, "home_touches_p_value": touches_p, "home_share_ci_overlap": share_overlap,
-        "consistent": goals_p > alpha and touches_p > alpha and share_overlap,
+        "home_goals_p_value": goals_p, "away_goals_p_value": against_p, "home_touches_p_value": touches_p,
+        "home_share_ci_overlap": share_overlap,
+        "consistent": goals_p > alpha and against_p > alpha and touches_p > alpha and share_overlap,
     }
 
 

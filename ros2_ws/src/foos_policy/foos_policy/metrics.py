@@ -2,11 +2,13 @@
 
 Columns: episode, timesteps, return, length, win, lose, term_goal, touches, goal_after_touch,
 goal_without_touch, then the paper's 50-episode moving averages Return50, EpLen50, WinRate50,
-LoseRate50, TermGoal50.
+LoseRate50, TermGoal50, then wall_s (seconds since training began) and stage (the reset/opponent the
+episode was played on: a curriculum's stage, else the task).
 """
 from __future__ import annotations
 
 import csv
+import time
 from collections import deque
 from pathlib import Path
 from typing import Iterable
@@ -18,6 +20,7 @@ RAW_COLUMNS = ("episode", "timesteps", "return", "length", "win", "lose", "term_
                "goal_after_touch", "goal_without_touch")
 SMOOTHED = {"Return50": "return", "EpLen50": "length", "WinRate50": "win", "LoseRate50": "lose", "TermGoal50": "term_goal"}
 COLUMNS = RAW_COLUMNS + tuple(SMOOTHED)
+CLOCK_COLUMNS = ("wall_s", "stage")  # written since the curriculum; older files lack them
 
 
 class MetricsWriter:
@@ -28,9 +31,10 @@ class MetricsWriter:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._file = open(self.path, "w", newline="")
         self._csv = csv.writer(self._file)
-        self._csv.writerow(COLUMNS)
+        self._csv.writerow(COLUMNS + CLOCK_COLUMNS)
         self._windows = {name: deque(maxlen=WINDOW) for name in SMOOTHED}
         self.episodes = 0
+        self._start = time.time()
 
     def add(self, timesteps: int, stats: dict) -> None:
         self.episodes += 1
@@ -39,7 +43,7 @@ class MetricsWriter:
         for name, key in SMOOTHED.items():
             self._windows[name].append(float(stats[key]))
             smoothed[name] = float(np.mean(self._windows[name]))
-        row = [raw[c] for c in RAW_COLUMNS] + [smoothed[c] for c in SMOOTHED]
+        row = [raw[c] for c in RAW_COLUMNS] + [smoothed[c] for c in SMOOTHED] + [round(time.time() - self._start, 1), stats.get("task", "")]
         self._csv.writerow([f"{v:.6g}" if isinstance(v, float) else v for v in row])
         self._file.flush()
 
@@ -58,7 +62,8 @@ def read_metrics(path: str | Path) -> dict[str, np.ndarray]:
     missing = [c for c in COLUMNS if c not in rows[0]]
     if missing:
         raise ValueError(f"{path} is not a metrics.csv (missing columns {', '.join(missing)})")
-    return {c: np.array([float(r[c]) for r in rows]) for c in COLUMNS}
+    columns = COLUMNS + (("wall_s",) if "wall_s" in rows[0] else ())
+    return {c: np.array([float(r[c]) for r in rows]) for c in columns}
 
 
 def plot_metrics(metrics_path: str | Path, out_dir: str | Path, title: str = "") -> list[Path]:
@@ -94,6 +99,23 @@ def plot_metrics(metrics_path: str | Path, out_dir: str | Path, title: str = "")
         fig.savefig(path, dpi=100)
         plt.close(fig)
         written.append(path)
+    # the learning curve against what it cost: steps, and wall-clock where the file has it
+    clocks = [("timesteps", "env steps")] + ([("wall_s", "wall-clock [min]")] if "wall_s" in m else [])
+    fig, axes = plt.subplots(1, len(clocks), figsize=(5.5 * len(clocks), 3.5), squeeze=False)
+    for ax, (column, label) in zip(axes[0], clocks):
+        x = m[column] / (60.0 if column == "wall_s" else 1.0)
+        ax.plot(x, m["WinRate50"], lw=1.2, label="win rate (50 episodes)")
+        ax.plot(x, m["LoseRate50"], lw=1.2, label="own-goal rate (50 episodes)")
+        ax.set_xlabel(label)
+        ax.set_ylim(-0.02, 1.02)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left", fontsize=8)
+    axes[0][0].set_title(title)
+    fig.tight_layout()
+    path = out_dir / "learning_curve.png"
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    written.append(path)
     fig, ax = plt.subplots(figsize=(6, 3.5))
     sc = ax.scatter(m["length"], m["return"], c=m["episode"], s=6, cmap="viridis")
     fig.colorbar(sc, ax=ax, label="episode")

@@ -56,32 +56,42 @@ def resolve_policy(spec: str) -> Path:
     raise PolicyError(f"no policy named `{spec}` (shipped: {available}; or give a PATH.zip)")
 
 
-def algo_of(path: Path) -> str:
-    """'sac' or 'tqc', read from the policy class recorded in an SB3 zip."""
+def algo_of(path: Path) -> tuple[str, str]:
+    """(learner, algo): 'sbx' (JAX) or 'sb3' (torch), and 'sac' or 'tqc', read from the policy class a saved zip
+    records."""
     try:
         with zipfile.ZipFile(path) as z:
             data = json.loads(z.read("data"))
     except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, OSError) as exc:
-        raise PolicyError(f"{path} is not a saved SB3 model ({exc.__class__.__name__})") from None
+        raise PolicyError(f"{path} is not a saved SB3/SBX model ({exc.__class__.__name__})") from None
     module = str(data.get("policy_class", {}).get("__module__", ""))
-    if "tqc" in module:
-        return "tqc"
-    if "sac" in module:
-        return "sac"
+    learner = "sbx" if module.startswith("sbx.") else "sb3"
+    for algo in ("tqc", "sac"):
+        if algo in module:
+            return learner, algo
     raise PolicyError(f"{path} holds a `{module or 'unknown'}` policy; only SAC and TQC are supported")
 
 
 def load_model(spec: str | Path):
     path = resolve_policy(str(spec))
-    algo = algo_of(path)
-    # SB3 is imported here, not at the top: torch takes seconds to import, and a command's --help need not wait.
-    if algo == "tqc":
+    learner, algo = algo_of(path)
+    # The learners are imported here, not at the top: JAX and torch take seconds to import, and a command's
+    # --help need not wait.
+    if learner == "sbx":
+        from sbx import SAC, TQC  # JAX: seconds to import
+
+        Algo, device = (TQC if algo == "tqc" else SAC), "auto"
+    elif algo == "tqc":
         from sb3_contrib import TQC as Algo  # torch: seconds to import
+
+        device = "cpu"
     else:
         from stable_baselines3 import SAC as Algo  # torch: seconds to import
+
+        device = "cpu"
     try:
-        return Algo.load(path, device="cpu")
-    except Exception as exc:  # a damaged zip fails in many ways inside SB3/torch
+        return Algo.load(path, device=device)
+    except Exception as exc:  # a damaged zip fails in many ways inside SB3/SBX
         raise PolicyError(f"cannot load {path}: {exc}".splitlines()[0]) from None
 
 

@@ -17,7 +17,8 @@ from .observation import ACTION_LIMIT
 from .policies import load_model
 from .scripted import ScriptedPolicy
 
-RESETS = ("paper", "hardened")
+RESETS = ("paper", "hardened", "resting")
+REWARDS = ("paper", "skill")
 OPPONENTS = ("none", "scripted", "selfplay", "lifted")
 
 
@@ -68,6 +69,8 @@ def make_reset(name: str):
         return PaperServe()
     if name == "hardened":
         return HardenedPlacement()
+    if name == "resting":
+        return HardenedPlacement(max_speed=0.0)
     raise ValueError(f"unknown reset `{name}` (expected one of {RESETS})")
 
 
@@ -86,7 +89,8 @@ class PaperReward:
     virtual_goal_fraction: float = 0.8
     control_cost: float = 1e-4
 
-    def __call__(self, y_before: float, y_after: float, goal: Optional[str], action, half_length: float) -> float:
+    def __call__(self, y_before: float, y_after: float, goal: Optional[str], action, half_length: float,
+                 first_touch: bool = False) -> float:
         y_virtual = self.virtual_goal_fraction * half_length
         reward = self.progress_weight * max(y_after - y_before, 0.0)
         reward += self.proximity_weight / (1.0 + abs(y_virtual - y_after))
@@ -97,6 +101,43 @@ class PaperReward:
         a = np.asarray(action, dtype=float)
         reward -= self.control_cost * float(a @ a)
         return float(reward)
+
+
+@dataclass(frozen=True)
+class SkillReward:
+    """R = w_p (y_after - y_before) + w_t [first home touch] + G [home goal] - G_own [own goal], in units a
+    SAC critic learns well (returns of order 10, not 1000).
+
+    The progress term is signed, so it is potential-based shaping (potential w_p y): over an episode it sums
+    to w_p times the ball's net gain, and it cannot change which policy is best; it only tells the learner
+    sooner that a kick forward was good and that a ball sent back toward its own goal was not. The paper's
+    max(dy, 0) pays a ball that goes forward and back again twice. The touch bonus is paid once per episode,
+    for the first touch of a home figure: on a resting ball nothing else rewards reaching it.
+    """
+
+    progress_weight: float = 5.0        # per metre gained toward the opponent's goal
+    touch_bonus: float = 0.5
+    goal_reward: float = 10.0
+    own_goal_penalty: float = 10.0
+
+    def __call__(self, y_before: float, y_after: float, goal: Optional[str], action, half_length: float,
+                 first_touch: bool = False) -> float:
+        reward = self.progress_weight * (y_after - y_before)
+        if first_touch:
+            reward += self.touch_bonus
+        if goal == "home":
+            reward += self.goal_reward
+        elif goal == "away":
+            reward -= self.own_goal_penalty
+        return float(reward)
+
+
+def make_reward(name: str):
+    if name == "paper":
+        return PaperReward()
+    if name == "skill":
+        return SkillReward()
+    raise ValueError(f"unknown reward `{name}` (expected one of {REWARDS})")
 
 
 # --- opponents -----------------------------------------------------------------------------------

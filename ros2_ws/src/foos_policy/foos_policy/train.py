@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 import time
@@ -11,8 +12,10 @@ from pathlib import Path
 from tqdm import tqdm
 
 from .commands import add_task_arguments, check_task_arguments, run_command, write_json
+from .curriculum import stage_at, stages
 from .env import make_env
 from .metrics import MetricsWriter, plot_metrics, summarize_tail
+from .tasks import REWARDS
 
 DESCRIPTION = """\
 Train SAC or TQC (stable-baselines3 / sb3-contrib) for the home team on the foosball twin.
@@ -38,6 +41,15 @@ Example:
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="train", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--algo", choices=("sac", "tqc"), default="sac", help="learning algorithm (default sac)")
+    p.add_argument("--learner", choices=("sbx", "sb3"), default="sbx",
+                   help="sbx: the JAX SAC/TQC (sbx-rl), 2-3x faster per update here; sb3: stable-baselines3 / sb3-contrib "
+                        "on torch, the paper's (default sbx; docs/policy.md has the comparison)")
+    p.add_argument("--reward", choices=REWARDS, default="paper",
+                   help="paper: progress + distance shaping + 1000 per goal; skill: signed progress, a first-touch bonus "
+                        "and 10 per goal, own goals -10 (default paper)")
+    p.add_argument("--curriculum", action="store_true",
+                   help="train first on a resting ball with still away rods (15 %% of the budget), then the task's serve "
+                        "with still away rods (15 %%), then the task itself")
     p.add_argument("--steps", type=int, default=20000, help="environment steps to train (default 20000; ~85 steps/s on a free core)")
     add_task_arguments(p)
     p.add_argument("--seed", type=int, default=0, help="seed of the env, the network init and the exploration (default 0)")
@@ -46,18 +58,22 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--n-envs", type=int, default=1, help="vectorised envs stepped together (DummyVecEnv, default 1)")
     p.add_argument("--net", type=int, nargs="+", default=[64, 64], help="hidden layer sizes of actor and critics (default 64 64)")
     p.add_argument("--learning-starts", type=int, default=1000, help="random steps before learning (default 1000)")
+    p.add_argument("--train-freq", type=int, default=32,
+                   help="env steps (per env) between rounds of updates (default 32: one round of --gradient-steps per 32)")
+    p.add_argument("--gradient-steps", type=int, default=32,
+                   help="gradient steps per round (default 32: one update per env step, as the paper; docs/policy.md)")
     p.add_argument("--buffer-size", type=int, default=200_000, help="replay buffer size (default 200000)")
     p.add_argument("--checkpoint-every", type=int, default=5000, help="steps between checkpoints (default 5000)")
     p.add_argument("--time-limit", type=float, default=0.0,
                    help="stop after this many wall-clock minutes even if --steps is not reached (0 = no limit); "
                         "run.json records the steps actually done")
-    p.add_argument("--threads", type=int, default=1, help="torch threads (default 1: the CPU is shared)")
+    p.add_argument("--threads", type=int, default=1, help="torch (sb3) or XLA (sbx) threads (default 1: the CPU is shared)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     args = p.parse_args(argv)
     if args.steps <= 0:
         p.error("--steps must be positive")
-    if args.n_envs <= 0:
-        p.error("--n-envs must be positive")
+    if args.n_envs <= 0 or args.train_freq <= 0 or args.gradient_steps <= 0:
+        p.error("--n-envs, --train-freq and --gradient-steps must be positive")
     check_task_arguments(p, args)
     return args
 
@@ -67,26 +83,34 @@ def default_name(algo: str, reset: str, opponent: str, seed: int) -> str:
 
 
 def build_model(args, env, tb_dir: Path):
-    # torch and SB3 are imported in the functions that use them: they take seconds, and `train --help` need not wait.
-    import torch
-
-    torch.set_num_threads(args.threads)
+    """The learner: SBX (JAX) or SB3 (torch) SAC or TQC, with the update schedule of the arguments."""
     kwargs = dict(
-        policy="MlpPolicy", env=env, seed=args.seed, verbose=0, device="cpu",
+        policy="MlpPolicy", env=env, seed=args.seed, verbose=0,
         learning_starts=args.learning_starts, buffer_size=args.buffer_size, batch_size=256,
+        train_freq=args.train_freq, gradient_steps=args.gradient_steps,
         tensorboard_log=str(tb_dir), policy_kwargs=dict(net_arch=list(args.net)),
     )
+    if args.learner == "sbx":
+        if args.threads == 1:  # read by XLA when JAX loads: one thread, so two runs share the 2 cores evenly
+            os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
+        # JAX: seconds to import, and `train --help` need not wait
+        from sbx import SAC, TQC
+
+        return (TQC if args.algo == "tqc" else SAC)(**kwargs)
+    import torch  # seconds to import
+
+    torch.set_num_threads(args.threads)
     if args.algo == "tqc":
         from sb3_contrib import TQC  # torch: seconds to import
 
-        return TQC(**kwargs)
+        return TQC(**kwargs, device="cpu")
     from stable_baselines3 import SAC  # torch: seconds to import
 
-    return SAC(**kwargs)
+    return SAC(**kwargs, device="cpu")
 
 
 def make_callbacks(metrics, total: int, progress: bool, checkpoint_dir: Path, checkpoint_every: int, name: str, n_envs: int,
-                   time_limit_s: float = 0.0):
+                   time_limit_s: float = 0.0, curriculum=()):
     # torch: seconds to import
     from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
 
@@ -118,8 +142,25 @@ def make_callbacks(metrics, total: int, progress: bool, checkpoint_dir: Path, ch
         def _on_training_end(self) -> None:
             self.bar.close()
 
+    class Curriculum(BaseCallback):
+        """Moves every env to the stage the budget spent so far calls for (from their next episode on)."""
+
+        def _on_training_start(self) -> None:
+            self.start = time.time()
+            self.stage = None
+
+        def _on_step(self) -> bool:
+            spent = self.num_timesteps / total
+            if time_limit_s > 0:
+                spent = max(spent, (time.time() - self.start) / time_limit_s)
+            stage = stage_at(curriculum, spent)
+            if stage != self.stage:
+                self.training_env.env_method("set_task", stage.reset, stage.opponent)
+                self.stage = stage
+            return True
+
     checkpoints = CheckpointCallback(save_freq=max(checkpoint_every // n_envs, 1), save_path=str(checkpoint_dir), name_prefix=name)
-    return CallbackList([EpisodeMetrics(), Progress(), checkpoints])
+    return CallbackList([Curriculum(), EpisodeMetrics(), Progress(), checkpoints])
 
 
 def train(args) -> dict:
@@ -129,9 +170,12 @@ def train(args) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     name = args.name or default_name(args.algo, args.reset, args.opponent, args.seed)
 
+    curriculum = stages(args.reset, args.opponent, args.curriculum)
+    first = curriculum[0]  # the envs start on the first stage: their first episode begins before any callback runs
+
     def env_factory(rank: int):
         def make():
-            env = make_env(args.reset, args.opponent, args.opponent_policy)
+            env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward)
             env.reset(seed=args.seed * 1000 + rank)
             return env
         return make
@@ -141,7 +185,7 @@ def train(args) -> dict:
     model = build_model(args, env, out / "tb")
     metrics = MetricsWriter(out / "metrics.csv")
     callbacks = make_callbacks(metrics, args.steps, not args.no_progress, out / "checkpoints", args.checkpoint_every, name, args.n_envs,
-                               args.time_limit * 60.0)
+                               args.time_limit * 60.0, curriculum)
 
     interrupted = False
 
@@ -162,6 +206,8 @@ def train(args) -> dict:
         "name": name, "algo": args.algo, "reset": args.reset, "opponent": args.opponent, "seed": args.seed,
         "steps_requested": args.steps, "time_limit_min": args.time_limit, "steps_done": int(model.num_timesteps),
         "interrupted": interrupted, "wall_s": round(wall, 1), "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 1),
+        "learner": args.learner, "reward": args.reward, "curriculum": args.curriculum,
+        "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
         "command": "train " + " ".join(sys.argv[1:]) if sys.argv else "",
         "model": str(model_path),
