@@ -16,7 +16,8 @@ T = TypeVar("T")
 def add_task_arguments(parser: argparse.ArgumentParser) -> None:
     """--reset, --opponent and --opponent-policy: the task a policy is trained or evaluated on."""
     parser.add_argument("--reset", choices=RESETS, default="paper",
-                        help="paper: the paper's centre serve; hardened: a nearly still ball in front of a home rod (default paper)")
+                        help="paper: the paper's centre serve; hardened: a nearly still ball in front of a home rod; resting: the "
+                             "same ball at rest (a curriculum's first stage) (default paper)")
     parser.add_argument("--opponent", choices=OPPONENTS, default="none",
                         help="none: passive away rods; scripted: tracking goalie+defence; selfplay: a frozen policy; "
                              "lifted: every away rod horizontal (default none)")
