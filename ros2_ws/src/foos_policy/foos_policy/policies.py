@@ -72,23 +72,27 @@ def algo_of(path: Path) -> tuple[str, str]:
     raise PolicyError(f"{path} holds a `{module or 'unknown'}` policy; only SAC and TQC are supported")
 
 
-def load_model(spec: str | Path):
-    path = resolve_policy(str(spec))
-    learner, algo = algo_of(path)
+def algorithm_class(learner: str, algo: str):
+    """(class, device) of SAC or TQC from SBX ('sbx', JAX) or SB3 / sb3-contrib ('sb3', torch): the one place
+    train, load_model and bench_policy pick a learner."""
     # The learners are imported here, not at the top: JAX and torch take seconds to import, and a command's
     # --help need not wait.
     if learner == "sbx":
-        from sbx import SAC, TQC  # JAX: seconds to import
+        from sbx import SAC, TQC  # JAX: seconds to import; reads XLA_FLAGS then
 
-        Algo, device = (TQC if algo == "tqc" else SAC), "auto"
-    elif algo == "tqc":
-        from sb3_contrib import TQC as Algo  # torch: seconds to import
+        return (TQC if algo == "tqc" else SAC), "auto"
+    if algo == "tqc":
+        from sb3_contrib import TQC  # torch: seconds to import
 
-        device = "cpu"
-    else:
-        from stable_baselines3 import SAC as Algo  # torch: seconds to import
+        return TQC, "cpu"
+    from stable_baselines3 import SAC  # torch: seconds to import
 
-        device = "cpu"
+    return SAC, "cpu"
+
+
+def load_model(spec: str | Path):
+    path = resolve_policy(str(spec))
+    Algo, device = algorithm_class(*algo_of(path))
     try:
         return Algo.load(path, device=device)
     except Exception as exc:  # a damaged zip fails in many ways inside SB3/SBX

@@ -15,6 +15,7 @@ from .commands import add_task_arguments, check_task_arguments, run_command, wri
 from .curriculum import stage_at, stages
 from .env import make_env
 from .metrics import MetricsWriter, plot_metrics, summarize_tail
+from .policies import algorithm_class
 from .tasks import REWARDS
 
 DESCRIPTION = """\
@@ -97,23 +98,15 @@ def build_model(args, env, tb_dir: Path):
         train_freq=args.train_freq, gradient_steps=args.gradient_steps,
         tensorboard_log=str(tb_dir), policy_kwargs=dict(net_arch=list(args.net)),
     )
-    if args.learner == "sbx":
-        if args.threads == 1:  # read by XLA when JAX loads: one thread, so two runs share the 2 cores evenly
-            os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
-        # JAX: seconds to import, and `train --help` need not wait
-        from sbx import SAC, TQC
+    if args.learner == "sbx" and args.threads == 1:  # read by XLA when JAX loads: one thread, so two runs share the cores
+        os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
+    Algo, device = algorithm_class(args.learner, args.algo)
+    if args.learner == "sb3":
+        import torch  # loaded already by algorithm_class
 
-        return (TQC if args.algo == "tqc" else SAC)(**kwargs)
-    import torch  # seconds to import
-
-    torch.set_num_threads(args.threads)
-    if args.algo == "tqc":
-        from sb3_contrib import TQC  # torch: seconds to import
-
-        return TQC(**kwargs, device="cpu")
-    from stable_baselines3 import SAC  # torch: seconds to import
-
-    return SAC(**kwargs, device="cpu")
+        torch.set_num_threads(args.threads)
+        kwargs["device"] = device
+    return Algo(**kwargs)
 
 
 def make_callbacks(metrics, total: int, progress: bool, checkpoint_dir: Path, checkpoint_every: int, name: str, n_envs: int,
