@@ -209,3 +209,27 @@ def test_a_curriculum_ends_on_the_task_and_set_task_changes_the_next_episode():
     env.set_task("hardened", "scripted")
     env.reset(seed=3)
     assert env.stats.task == "hardened/scripted" and env.opponent.act(env._observe("away")) is not None
+
+
+def test_a_late_opponent_acts_on_what_it_saw_steps_ago_and_forgets_at_reset():
+    """--opponent-delay 0.06 s: at every step the scripted away team decides on the away observation of 3
+    control steps earlier (the episode's first one until then), and a new episode forgets the last one."""
+    late = FoosballEnv("hardened", "scripted", opponent_delay=0.06)
+    assert late.opponent_delay_steps == 3
+    scripted = late.opponent.opponent
+    decided_on = []
+    original_act = scripted.act
+    scripted.act = lambda obs: decided_on.append(np.array(obs)) or original_act(obs)
+    for episode in range(2):
+        late.reset(seed=episode)
+        decided_on.clear()
+        seen = []
+        rng = np.random.default_rng(episode)
+        for _ in range(8):
+            seen.append(late._observe("away"))
+            late.step(rng.uniform(-20, 20, 8))
+        for step, obs in enumerate(decided_on):
+            np.testing.assert_array_equal(obs, seen[max(0, step - 3)])
+    assert FoosballEnv("hardened", "scripted").opponent_delay_steps == 0
+    with pytest.raises(ValueError, match="at least 0 s"):
+        FoosballEnv("hardened", "scripted", opponent_delay=-0.02)

@@ -23,11 +23,16 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
                              "lifted: every away rod horizontal (default none)")
     parser.add_argument("--opponent-policy", default=None,
                         help="PATH.zip or shipped name of the frozen away policy for --opponent selfplay")
+    parser.add_argument("--opponent-delay", type=float, default=0.0, metavar="SECONDS",
+                        help="the away team acts on what it saw this long ago, rounded to 20 ms control steps: a real "
+                             "table's camera and drive dead time (default 0: the scripted opponent reacts at once)")
 
 
 def check_task_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     if args.opponent == "selfplay" and not args.opponent_policy:
         parser.error("--opponent selfplay needs --opponent-policy PATH.zip")
+    if not args.opponent_delay >= 0:
+        parser.error("--opponent-delay must be at least 0 seconds")
 
 
 def run_command(prog: str, work: Callable[[], T], errors: tuple[type[Exception], ...],

@@ -29,6 +29,7 @@ class EnvConfig:
     reset: str = "paper"                # paper | hardened
     opponent: str = "none"              # none | scripted | selfplay | lifted
     opponent_policy: Optional[str] = None
+    opponent_delay: float = 0.0         # s, the away team acts on what it saw this long ago (whole control steps)
     control_rate: float = 50.0          # Hz
     max_steps: int = 500                # time limit: 10 s at 50 Hz
     stagnant_speed: float = 0.05        # m/s, planar ball speed under which the ball counts as stagnant
@@ -83,11 +84,14 @@ class FoosballEnv(gym.Env):
         self.config = cfg
         self.sim = TableSimulation(cfg.params_file)
         self.reset_task = make_reset(cfg.reset)
-        self.opponent = make_opponent(cfg.opponent, self.sim, cfg.opponent_policy)
         self.reward_fn = make_reward(cfg.reward)
         if not cfg.control_rate > 0 or 1.0 / cfg.control_rate < self.sim.timestep:
             raise ValueError(f"control_rate {cfg.control_rate} Hz is not within the {1 / self.sim.timestep:.0f} Hz physics")
         self.dt = 1.0 / cfg.control_rate
+        if not cfg.opponent_delay >= 0:
+            raise ValueError(f"the opponent's delay must be at least 0 s, got {cfg.opponent_delay}")
+        self.opponent_delay_steps = int(round(cfg.opponent_delay / self.dt))
+        self.opponent = make_opponent(cfg.opponent, self.sim, cfg.opponent_policy, self.opponent_delay_steps)
 
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
         self.action_space = gym.spaces.Box(-ACTION_LIMIT, ACTION_LIMIT, (COMMAND_SIZE,), np.float32)
@@ -98,6 +102,8 @@ class FoosballEnv(gym.Env):
     # --- gymnasium API --------------------------------------------------------------------------
     def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
         super().reset(seed=seed)
+        if hasattr(self.opponent, "clear"):
+            self.opponent.clear()
         position, velocity = self.reset_task.sample(self.np_random, self.sim)
         initial_joints = getattr(self.opponent, "initial_joint_positions", None)
         self.sim.reset(ball_position=position, ball_velocity=velocity,
@@ -147,7 +153,7 @@ class FoosballEnv(gym.Env):
             self.reset_task = make_reset(reset)
             self.config.reset = reset
         if opponent is not None and opponent != self.config.opponent:
-            self.opponent = make_opponent(opponent, self.sim, self.config.opponent_policy)
+            self.opponent = make_opponent(opponent, self.sim, self.config.opponent_policy, self.opponent_delay_steps)
             self.config.opponent = opponent
 
     # --- internals ------------------------------------------------------------------------------

@@ -55,7 +55,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def evaluate(args) -> dict:
-    env = make_env(args.reset, args.opponent, args.opponent_policy, params_file=args.params_file)
+    env = make_env(args.reset, args.opponent, args.opponent_policy, params_file=args.params_file, opponent_delay=args.opponent_delay)
     policy = make_policy(args.policy, env.sim.params, env.sim.command_limits, seed=args.seed)
     start = time.time()
     results = run_episodes(env, policy.predict, episode_seeds(args.seed, args.episodes), progress=not args.no_progress,
@@ -63,6 +63,7 @@ def evaluate(args) -> dict:
     wall = time.time() - start
     return summarize(results, extra={
         "policy": args.policy, "reset": args.reset, "opponent": args.opponent, "seed": args.seed,
+        "opponent_delay_s": env.opponent_delay_steps * env.dt,
         "params_file": args.params_file, "physics": env.sim.physics,
         "control_rate_hz": 1.0 / env.dt, "max_steps": env.config.max_steps, "wall_s": round(wall, 1),
         "command": "evaluate " + " ".join(sys.argv[1:]),

@@ -5,6 +5,7 @@ an episode starts, what it pays and who plays the away rods.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Protocol
@@ -189,7 +190,36 @@ class FrozenPolicyOpponent:
         return np.clip(action, -ACTION_LIMIT, ACTION_LIMIT)
 
 
-def make_opponent(name: str, sim, opponent_policy: str | None = None) -> Opponent:
+class ReactionDelay:
+    """An opponent acting on its observation of `steps` control steps ago: a real table's camera and drive
+    dead time, which the scripted opponent otherwise lacks (it sees the true state at once)."""
+
+    def __init__(self, opponent: Opponent, steps: int):
+        self.opponent = opponent
+        self.steps = int(steps)
+        self.seen: deque = deque(maxlen=self.steps + 1)
+        initial = getattr(opponent, "initial_joint_positions", None)
+        if initial is not None:
+            self.initial_joint_positions = initial
+
+    def clear(self) -> None:
+        """Forget what was seen: a new episode starts from what it shows."""
+        self.seen.clear()
+
+    def act(self, obs: np.ndarray) -> Optional[np.ndarray]:
+        self.seen.append(np.array(obs))
+        return self.opponent.act(self.seen[0])
+
+
+def make_opponent(name: str, sim, opponent_policy: str | None = None, delay_steps: int = 0) -> Opponent:
+    """The away team `name`, acting `delay_steps` control steps late when that is above 0."""
+    if delay_steps < 0:
+        raise ValueError(f"the opponent's delay must not be negative, got {delay_steps} steps")
+    opponent = _make_opponent(name, sim, opponent_policy)
+    return ReactionDelay(opponent, delay_steps) if delay_steps > 0 else opponent
+
+
+def _make_opponent(name: str, sim, opponent_policy: str | None) -> Opponent:
     if name == "none":
         return PassiveOpponent()
     if name == "scripted":

@@ -175,7 +175,7 @@ def train(args) -> dict:
 
     def env_factory(rank: int):
         def make():
-            env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward)
+            env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward, opponent_delay=args.opponent_delay)
             env.reset(seed=args.seed * 1000 + rank)
             return env
         return make
