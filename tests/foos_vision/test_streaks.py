@@ -107,6 +107,34 @@ def test_a_ball_struck_from_rest_is_where_it_was_at_mid_exposure(rest):
     assert math.hypot(s.u - truth[0], s.v - truth[1]) < 1.5, (s.u, s.v, truth, s.rest)
 
 
+# A figure over the streak's middle (the ball passed under it), and one beside the streak, touching it.
+@pytest.mark.parametrize("rows", [(104, 140), (84, 114)])
+def test_a_streak_that_touches_a_figure_of_its_colour_is_found_without_the_mask(rows):
+    # The ball passes a figure of its own colour on a rod: streak and figure are one blob, too solid to be a streak.
+    # The rod's axis tells the figure (solid ball colour over it) from the ball, which is below the rods.
+    start, end = (100.0, 120.0), (230.0, 128.0)
+    image = exposure(moving(start, end))
+    image[:, 150:158] = (120, 122, 125)  # the steel rod across the streak
+    image[rows[0]:rows[1], 144:164] = learned_colour().astype(np.uint8)  # the figure, over the rod
+    axes = np.zeros(SIZE, np.uint8)
+    axes[:, 154] = 255
+    truth = mid_exposure(start, end)
+    h, w = SIZE
+    found = {with_axes: [s for s in find_streaks(image, (0, 0, w, h), lambda u, v: RADIUS, learned_colour(), FELT,
+                                                 width=STREAK_WIDTH, rod_axes=axes if with_axes else None)
+                         if streak_ball(s, RADIUS)] for with_axes in (False, True)}
+    assert not found[False]
+    assert len(found[True]) == 1, found[True]
+    s = found[True][0]
+    assert math.hypot(s.u - truth[0], s.v - truth[1]) < 1.5, (s.u, s.v, truth)
+    # The figure alone, on its rod, is no streak.
+    alone = exposure([np.array([-100.0, -100.0])])
+    alone[:, 150:158] = (120, 122, 125)
+    alone[104:140, 144:164] = learned_colour().astype(np.uint8)
+    assert not [s for s in find_streaks(alone, (0, 0, w, h), lambda u, v: RADIUS, learned_colour(), FELT,
+                                        width=STREAK_WIDTH, rod_axes=axes) if streak_ball(s, RADIUS)]
+
+
 def test_what_is_not_a_streak():
     # A figure of the ball's colour lying level (a bar of solid colour), a steel rod's white highlight for a white
     # ball (a line), and a ball at rest: none is a streak of a moving ball.

@@ -144,7 +144,8 @@ class BallSearch:
         found = []
         for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self._felt_colour(bgr),
                               view.active_region, min_motion=STREAK_MOMENT_MOTION, width=STREAK_WIDTH,
-                              near=(float(expected[0]), float(expected[1]))):
+                              near=(float(expected[0]), float(expected[1])),
+                              rod_axes=view.rod_axes if self.rules.rods_tell_figures(self.colour) else None):
             r = view.radius_at_pixel(s.u, s.v)
             if not streak_ball(s, r) or math.hypot(s.u - start[0], s.v - start[1]) > reach:
                 continue

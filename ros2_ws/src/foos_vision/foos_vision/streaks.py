@@ -13,6 +13,8 @@ exposure, its centre at mid-exposure for a ball that keeps its velocity: the tim
 streak's axis, the second moment adds the motion: var = r^2 / 4 + m^2 / 12 for a disc moved m, across it r^2 / 4.
 A blob of such pixels is fitted with that model on the pixels known to be ball or felt (a rod or a figure over part
 of the streak does not count), and the ball at mid-exposure is where half of its shares lie on either side.
+A figure of the ball's colour is on the plane too, as solid ball colour: given the rods' axes, solid ball colour by an
+axis is taken as hidden, like a figure of another colour, so a streak that touches it is measured without it.
 """
 from __future__ import annotations
 
@@ -43,6 +45,13 @@ MAX_PEAK = 0.95
 CONTRAST, CONTRAST_WEIGHT = 0.9, 0.01
 SMOOTHING = 0.4  # radii: the box the shares are averaged over for the fit (3 px at least)
 REST_PEAK = 2.5  # a blob whose largest share is this many times its median is also fitted as a ball that rested
+# A figure of the ball's colour is solid colour (shares over SOLID_ALPHA) over its rod's axis: the rod runs through its
+# body, while the ball is always below the rods and never covers an axis. A streak that touches such a figure is one
+# blob with it, too solid to be a streak: the figure's solid pixels, and FIGURE_MARGIN radii around them (its edges
+# blend it with the felt), are taken as hidden, as the figure mask would have them, and the rest is measured.
+# Solid ball colour within FIGURE_REACH radii of an axis is counted with the figure: a kicked leg reaches its foot's end
+# 4.5 radii from the axis, and a figure's shaded middle (not its colour: unknown) can part its lit ends from the axis.
+FIGURE_MARGIN, FIGURE_REACH = 0.3, 4.5
 
 
 @dataclass
@@ -94,6 +103,24 @@ def known_mask(mix: np.ndarray) -> np.ndarray:
     scale = a / np.maximum(1.0 - alpha, 1e-3)
     return ((np.abs(residual) <= RESIDUAL_MAX + 0.1 * np.abs(alpha) * 255)
             & (((scale >= FELT_SCALE[0]) & (scale <= FELT_SCALE[1])) | (alpha >= SOLID_ALPHA)))
+
+
+def ball_coloured_figures(alpha: np.ndarray, mask: np.ndarray, axes: np.ndarray, radius: float) -> Optional[np.ndarray]:
+    """bool, or None where there is none: the pixels of mask that are solid ball colour, in pieces that come within
+    FIGURE_REACH radii of a rod's axis (axes, nonzero on the axes' pixels), FIGURE_MARGIN radii around them included:
+    figures of the ball's colour."""
+    solid = (mask & (alpha >= SOLID_ALPHA)).astype(np.uint8)
+    if not np.any(solid) or not np.any(axes):
+        return None
+    # Pixels to the nearest axis pixel (linear in the window, whatever the reach).
+    to_axis = cv2.distanceTransform((axes == 0).astype(np.uint8), cv2.DIST_L2, 3)
+    over_axis = (solid > 0) & (to_axis <= FIGURE_REACH * radius)
+    if not np.any(over_axis):
+        return None
+    _, labels = cv2.connectedComponents(solid, connectivity=8)
+    figures = np.isin(labels, np.unique(labels[over_axis])).astype(np.uint8)
+    k = 2 * max(1, int(round(FIGURE_MARGIN * radius))) + 1
+    return cv2.dilate(figures, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
 
 
 def _streak_model(params: np.ndarray, s: np.ndarray, q: np.ndarray, radius: float, rest_end: float = 1.0) -> np.ndarray:
@@ -308,12 +335,14 @@ def _measure(blob: _Blob, alpha: np.ndarray, known: np.ndarray, origin: tuple[in
 def find_streaks(bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Callable[[float, float], float],
                  ball_bgr: np.ndarray, felt_bgr: np.ndarray, region: Optional[np.ndarray] = None,
                  bridge: float = 1.6, min_motion: float = 1.0, width: tuple[float, float] = (0.7, 1.3),
-                 near: Optional[tuple[float, float]] = None, most: int = 3) -> list[Streak]:
+                 near: Optional[tuple[float, float]] = None, most: int = 3,
+                 rod_axes: Optional[np.ndarray] = None) -> list[Streak]:
     """Blobs of mixed ball and felt pixels in roi = (x0, y0, x1, y1), measured as streaks. bridge: gaps up to this
     many radii (a rod across the streak) are grouped into one blob. Only blobs whose second moments say that they
     moved min_motion radii or more and whose spread across their axis is `width` times a disc's (a rod's highlight is
     thinner) are measured, at most `most` of them, the nearest to `near` (a full-frame pixel) first: a fit costs
-    5-10 ms."""
+    5-10 ms. rod_axes: the image of the rods' axes (nonzero on them; BallSearch gives it for a coloured ball): solid
+    ball colour by one is a figure, hidden (ball_coloured_figures)."""
     x0, y0, x1, y1 = roi
     mix = mixing(bgr[y0:y1, x0:x1], ball_bgr, felt_bgr)
     plain = known_mask(mix)
@@ -327,6 +356,11 @@ def find_streaks(bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Cal
     known = cv2.erode(plain.astype(np.uint8), np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE) > 0
     radius = radius_at((x0 + x1) / 2, (y0 + y1) / 2)
     k = max(1, int(round(bridge * radius)))
+    if rod_axes is not None:
+        figures = ball_coloured_figures(alpha, mask > 0, rod_axes[y0:y1, x0:x1], radius)
+        if figures is not None:
+            mask[figures] = 0
+            known &= ~figures
     grouping = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
     blobs = _blobs(mix, alpha, mask, grouping, radius_at, (x0, y0), min_motion, width)
     if near is not None:
