@@ -42,6 +42,11 @@ from .tracks import Flight, Segment  # noqa: E402
 FAR_ABOVE = 3.0  # residual RMS over the detection noise that is far above it
 MIN_FRAMES = 120  # frames a place needs (1 s at 120 fps) before its residual is judged
 MIN_SEGMENTS = 3  # and segments: one odd roll is not a place
+# Held-out starts a horizon needs before its predictions are judged: the median of fewer has no distribution-free
+# 95 % bound (the least of 6 errors lies under their median with probability 1/64; of 4, 1/16). A game's figures
+# leave few stretches long enough: the demo's game had 4 starts 0.5 s long, and their median (16.7 mm, with an
+# interval of 1.7-37 mm) was flagged at 5.6x the noise.
+MIN_PREDICTION_STARTS = 6
 CELL = 0.2  # m, about the size of a field cell (the field is split into whole cells of about this)
 SPEED_BANDS = (0.0, 0.3, 1.0, 2.0, np.inf)  # m/s
 AFTER_EVENT = 0.3  # s: "just after" a wall bounce or a figure contact
@@ -225,13 +230,13 @@ def _with_xy(start: Start, xy: np.ndarray) -> Start:
 def unexplained_predictions(errors: np.ndarray, floor: np.ndarray, noise: float, label: str) -> list[dict]:
     """An entry when the held-out predictions miss by far more than a right model would (see the module).
 
-    Judged at the longest horizon with MIN_SEGMENTS starts measured: 1 s on rolls; in a game, where figures
-    leave few stretches that long, a shorter one.
+    Judged at the longest horizon with MIN_PREDICTION_STARTS starts measured: 1 s on rolls; in a game, where
+    figures leave few stretches that long, a shorter one.
     """
     for j in reversed(range(len(HORIZONS))):
         e = errors[:, j]
         e = e[np.isfinite(e)]
-        if len(e) >= MIN_SEGMENTS and np.isfinite(floor[j]):
+        if len(e) >= MIN_PREDICTION_STARTS and np.isfinite(floor[j]):
             break
     else:
         return []
