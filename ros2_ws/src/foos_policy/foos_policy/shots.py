@@ -27,6 +27,7 @@ from foos_sim.simulation import TableSimulation
 
 from .env import make_env
 from .evaluation import wilson_interval
+from .scripted import LIFTED  # rad, a rod turned horizontal, out of the ball's way
 
 SHOT_LINE_AHEAD = 0.045   # m, the ball's start ahead of the home attack rod: where its kicks are fastest
 SETTLE_STEPS = 20         # control steps (0.4 s) for the away rods to settle on the still ball
@@ -34,7 +35,6 @@ SHOT_STEPS = 100          # control steps (2 s) a shot is followed for
 MOUTH_MARGIN = 0.08       # m, aim points are drawn within +-this of the goal's centre (the mouth is +-0.10)
 CARRY_TIME = 0.2          # s, the longest a ball is carried along the line before a shot
 CARRY_SPAN = 0.4          # m, the farthest it is carried (it starts 0.2 m off the centre line, on either side)
-LIFTED = np.pi / 2        # rad, a rod turned horizontal, out of the ball's way
 
 
 @dataclass(frozen=True)
