@@ -16,6 +16,7 @@ from foos_bag import (
     write_joint_states,
 )
 from foos_bag.message_types import header
+from foos_calibration import games
 from foos_core.names import JOINT_NAMES, TEAMS
 
 from .test_calibration_cli import one_line_error
@@ -78,3 +79,23 @@ def test_bad_game_data_is_refused_in_one_line_and_writes_nothing(ros2_run, tmp_p
     write_game(tmp_path / "backwards", t, backwards_at=100)
     one_line_error(ros2_run("calibrate", str(tmp_path / "backwards"), "--out", str(tmp_path / "o3")), "stamps go backwards")
     assert not (tmp_path / "o3").exists()
+
+
+def test_a_figure_restitution_is_hidden_in_games_only(ros2_run, tmp_path):
+    """`--game --effect figure_restitution:coefficient=C` plays the game on figures of that restitution (the same
+    seed with dead and lively figures parts after the first figure touch); a free roll or a coefficient out of range
+    is refused in one line."""
+    def ball_path(coefficient: float) -> np.ndarray:
+        effect = {"name": "figure_restitution", "params": {"coefficient": coefficient}}
+        return games.play([effect], games.GameOptions(duration=4.0, seed=3, noise=0.0, dropout=0.0)).ball_position
+
+    dead, lively = ball_path(0.2), ball_path(0.9)
+    n = min(len(dead), len(lively))
+    assert np.max(np.abs(dead[:n] - lively[:n])) > 0.01  # m: the bounces differ
+    assert ros2_run("generate_measured", str(tmp_path / "game"), "--game", "--duration", "2",
+                    "--effect", "figure_restitution:coefficient=0.3").returncode == 0
+    for args, text in (((str(tmp_path / "free"),), "add --game"), ((str(tmp_path / "bad"), "--game", "--duration", "2"), "coefficient")):
+        result = ros2_run("generate_measured", *args, "--effect", "figure_restitution:coefficient=1.5")
+        lines = result.stderr.strip().splitlines()
+        assert result.returncode == 2 and len(lines) == 1 and lines[0].startswith("generate_measured:") and text in lines[0], result.stderr
+    assert not (tmp_path / "free").exists() and not (tmp_path / "bad").exists()

@@ -10,7 +10,7 @@ import pytest
 
 from foos_calibration.game_data import drive_model
 from foos_calibration.games import GameOptions, play
-from foos_calibration.rods import DriveData, identify
+from foos_calibration.rods import DriveData, identify, markdown
 from foos_core.names import TEAMS
 from foos_core.table_params import load_params
 
@@ -61,3 +61,19 @@ def test_nothing_hidden_names_no_drive_effect():
     result = identified([], seed=7)
     assert result.effects == []
     assert result.block["calibrated"] == result.block["baseline"]
+
+
+def test_a_drive_of_its_own_shows_its_gain_in_the_per_drive_errors():
+    """One slow rod hardly moves the medians over 16 drives; `per_drive_error_0_25s` and the report's rods section show
+    that drive's own gain."""
+    hidden = [{"name": "rod_speed_limit", "params": {"slide": 1.2, "rotate": 15.0, "team": "home", "rod": "attack"}}]
+    result = identified(hidden, seed=5)
+    assert [(e["name"], e["params"].get("team"), e["params"].get("rod")) for e in result.effects] == [
+        ("rod_speed_limit", "home", "attack")], result.effects
+    own = result.block["per_drive_error_0_25s"]
+    for axis in ("slide", "rotate"):
+        gain = own[f"home_attack_{axis}"]
+        assert gain["calibrated"] < 0.5 * gain["baseline"], own
+        assert own[f"away_goalie_{axis}"]["calibrated"] == own[f"away_goalie_{axis}"]["baseline"], own
+    text = markdown(result.block, result.effects)
+    assert f"home_attack_slide: {own['home_attack_slide']['baseline']} -> {own['home_attack_slide']['calibrated']} mm" in text

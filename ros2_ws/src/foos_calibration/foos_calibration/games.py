@@ -10,7 +10,9 @@ generator's OWN command pipeline (HiddenDrives: a delay queue and limiters on wh
 to an ideal TableSimulation), not by foos_sim.drive_limits, the model calibration fits. Hidden table
 effects (TABLE_EFFECTS) are forces on the ball from the same loop (hidden_forces, as the free-roll
 generator's). A hidden `camera_latency` stamps every detection `delay` after its capture (the encoders keep
-the true clock). The bag records the commands as the players sent them, as a real recorder would:
+the true clock). A hidden `figure_restitution` (`coefficient`) is the generating table's own `figures:
+restitution`: it is hidden INSIDE the model being fitted (the fast physics' figure impact rule), as no
+outside mechanism can bounce the ball off a figure. The bag records the commands as the players sent them, as a real recorder would:
 
   /ball/detection   geometry_msgs/PointStamped at the camera rate, Gaussian noise, dropouts
   /joint_states     the 16 joints at the encoder rate, stamped at measurement, with encoder noise
@@ -43,6 +45,8 @@ DRIVE_EFFECTS = ("rod_latency", "rod_speed_limit", "rod_acceleration_limit")
 TABLE_EFFECTS = ("table_tilt", "rolling_resistance", "viscous_damping", "air_drag", "surface_dent")
 # The camera's latency is hidden in the stamps alone: a detection is stamped `delay` after its capture.
 CAMERA_EFFECTS = ("camera_latency",)
+FIGURE_EFFECTS = ("figure_restitution",)
+FIGURE_RESTITUTION_RANGE = (0.05, 0.95)  # the coefficient's range the replays' grid can fit (figure_bounces.GRID is 0.15-0.95)
 MAX_CAMERA_DELAY = 0.5  # s
 CONTROL_PERIOD = 0.02  # s: the players send commands at 50 Hz, as the RL env and policy_node do
 KICK_REACH = 0.07  # m: a player kicks when the ball centre is this close to its rod line
@@ -213,10 +217,10 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
     The hidden drive effects are applied by HiddenDrives, the table effects (TABLE_EFFECTS) by forces on
     the ball from this loop (hidden_forces), both outside the model that `calibrate` fits.
     """
-    unknown = [e.get("name") for e in effects if e.get("name") not in DRIVE_EFFECTS + TABLE_EFFECTS + CAMERA_EFFECTS]
+    hideable = DRIVE_EFFECTS + TABLE_EFFECTS + CAMERA_EFFECTS + FIGURE_EFFECTS
+    unknown = [e.get("name") for e in effects if e.get("name") not in hideable]
     if unknown:
-        raise GameError(f"the game generator hides {', '.join(DRIVE_EFFECTS + TABLE_EFFECTS + CAMERA_EFFECTS)}; "
-                        f"not `{unknown[0]}`")
+        raise GameError(f"the game generator hides {', '.join(hideable)}; not `{unknown[0]}`")
     camera_delay = _camera_delay(effects)
     try:
         table = HiddenEffects.from_effects([e for e in effects if e.get("name") in TABLE_EFFECTS])
@@ -225,6 +229,7 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
     rng = np.random.default_rng(options.seed)
     params = params if params is not None else load_params()
     params = {**params, "effects": [e for e in params.get("effects", []) or [] if e.get("name") not in DRIVE_EFFECTS]}
+    params = _with_figure_restitution(params, effects)
     sim = TableSimulation(params=params)
     hidden = HiddenDrives(effects, sim.command_limits)
     pushed = _BallPush(sim, params, table) if effects and any(e.get("name") in TABLE_EFFECTS for e in effects) else None
@@ -297,6 +302,23 @@ def _camera_delay(effects: Sequence[dict]) -> float:
     return delays[0] if delays else 0.0
 
 
+def _with_figure_restitution(params: dict, effects: Sequence[dict]) -> dict:
+    """`params` with the figures' restitution set to a hidden figure_restitution's `coefficient` (a copy)."""
+    coefficients = []
+    for effect in effects:
+        if effect.get("name") in FIGURE_EFFECTS:
+            value = (effect.get("params") or {}).get("coefficient")
+            low, high = FIGURE_RESTITUTION_RANGE
+            if not isinstance(value, (int, float)) or not (low <= value <= high):
+                raise GameError(f"effect `figure_restitution` needs `coefficient` in [{low}, {high}]")
+            coefficients.append(float(value))
+    if len(coefficients) > 1:
+        raise GameError("one `figure_restitution` at most")
+    if not coefficients:
+        return params
+    return {**params, "figures": {**params["figures"], "restitution": coefficients[0]}}
+
+
 def _measure(options, rng, sim, camera_delay, t, ball, joint_p, joint_v, command_t, commands, serves, goals) -> GameRecording:
     """Camera frames and encoder samples from the per-step truth."""
     frames = np.arange(t[0], t[-1], 1.0 / options.fps)
@@ -343,10 +365,21 @@ def random_drive_effect(name: str, rng: np.random.Generator, team: str | None = 
     raise GameError(f"unknown drive effect `{name}`")
 
 
-def generate_game(path: str | Path, effects: Sequence[dict], options: GameOptions = GameOptions()) -> GameRecording:
+def random_camera_latency(rng: np.random.Generator) -> dict:
+    """A camera latency like a real camera's: 10-20 ms for a machine-vision camera, 30-100 ms for a USB webcam."""
+    return {"name": "camera_latency", "params": {"delay": float(rng.uniform(0.01, 0.1))}}
+
+
+def random_figure_restitution(rng: np.random.Generator) -> dict:
+    """A figure restitution from dead (0.2: soft plastic figures) to lively (0.85: hard figures), the nominal 0.5 inside."""
+    return {"name": "figure_restitution", "params": {"coefficient": float(rng.uniform(0.2, 0.85))}}
+
+
+def generate_game(path: str | Path, effects: Sequence[dict], options: GameOptions = GameOptions(),
+                  params: dict | None = None) -> GameRecording:
     if Path(path).exists():
         raise GameError(f"{path} exists already; choose another name or delete it")
-    recording = play(effects, options)
+    recording = play(effects, options, params)
     write_game_bag(recording, path)
     return recording
 

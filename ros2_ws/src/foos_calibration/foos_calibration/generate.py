@@ -331,6 +331,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise ValueError("drive effects (rod_*) are hidden in games: add --game")
         if any(e["name"] in games.CAMERA_EFFECTS for e in effects):  # found against the encoders' clock
             raise ValueError("camera_latency is hidden in games (against the joint states' clock): add --game")
+        if any(e["name"] in games.FIGURE_EFFECTS for e in effects):  # a free roll has the rods lifted
+            raise ValueError("figure_restitution is hidden in games (free rolls never meet a figure): add --game")
         if args.random:
             rng = np.random.default_rng(args.seed + 1_000_003)
             names = rng.choice([n for n in EFFECT_NAMES], size=min(args.random, len(EFFECT_NAMES)), replace=False)

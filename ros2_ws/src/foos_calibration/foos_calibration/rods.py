@@ -413,6 +413,20 @@ def gain_summary(errors: np.ndarray, seed: int = 0, n_boot: int = 1000) -> dict:
     return out
 
 
+def per_drive_errors(nominal: np.ndarray, calibrated: np.ndarray, horizon: float = 0.25) -> dict:
+    """Each drive's median error `horizon` ahead, nominal and calibrated (slides mm, rotations deg). A per-drive
+    effect shows here: one slow drive hardly moves the medians over all 16."""
+    h = HORIZONS.index(horizon)
+    out = {}
+    for j, name in enumerate(JOINT_NAMES):
+        scale, unit = (1000.0, "mm") if name.endswith("_slide") else (180.0 / np.pi, "deg")
+        pair = [errors[:, h, j][np.isfinite(errors[:, h, j])] * scale for errors in (nominal, calibrated)]
+        if all(len(p) for p in pair):
+            out[name] = {"baseline": round(float(np.median(pair[0])), 3), "calibrated": round(float(np.median(pair[1])), 3),
+                         "unit": unit}
+    return out
+
+
 def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None] = lambda message: None,
              seed: int = 0) -> RodResult:
     """The drive effects the game supports, with evidence, and the report's `rods` block."""
@@ -448,6 +462,7 @@ def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None]
         "calibrated": gain_summary(calibrated_errors, seed),
         "per_drive": {JOINT_NAMES[j]: {c: _round(_physical(c, d["values"][c][0], j, model)) for c in d["chosen"]}
                       for j, d in enumerate(per_drive) if d["chosen"]},
+        "per_drive_error_0_25s": per_drive_errors(nominal_errors, calibrated_errors),
         "rejected": rejected,
         "method": {
             "model": "dead time, speed clip, rate limit on the received commands; the nominal servo's own acceleration "
@@ -497,4 +512,10 @@ def markdown(block: dict, effects: list[dict]) -> str:
             key = f"{axis}_median_error_{unit}_{horizon:g}s".replace(".", "_")
             ci = key.replace("median_error", "ci95")
             out.append(f"| {axis} ({unit}) | {horizon:g} s | {b.get(key)} {b.get(ci, '')} | {c.get(key)} {c.get(ci, '')} |")
+    # The drives an effect names one by one: their own errors, which the medians over all 16 drives hide.
+    own = {name for e in named if e["params"].get("team") for name in e["evidence"].get("per_drive", {})}
+    rows = [(name, gain) for name, gain in (block.get("per_drive_error_0_25s") or {}).items() if name in own]
+    if rows:
+        out += ["", "The drives with an effect of their own, error 0.25 s ahead (median over starts), nominal -> calibrated:", ""]
+        out += [f"- {name}: {g['baseline']} -> {g['calibrated']} {g['unit']}" for name, g in rows]
     return "\n".join(out) + "\n"
