@@ -8,6 +8,8 @@ blob it settles on, or (None, ...) (the Lab pixels and their roi give the colour
   and `partial_run` starts a track on a run of them.
 - `streak`: a motion-blurred ball (a shot) within a shot's reach of the track's last detection (streaks.py), in the
   ball's colour as learned from the whole balls seen (`note_whole_ball`).
+- `short_streak`: with no track running, a streak around a partial ball of the latest field search (a ball rolling a
+  little too fast for its colour box to take it whole), a sighting toward a new track.
 """
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ from .candidate_rules import (
     PARTIAL_MIN_RATIO,
     PARTIAL_MIN_SCORE,
     PARTIAL_NEAR,
+    SHORT_STREAK_MOTION,
     STREAK_WIDTH,
     CandidateRules,
     Fixtures,
@@ -57,6 +60,9 @@ STREAK_ALONG = 0.03
 # many radii by their moments are fitted (CandidateRules: STREAK_MIN_MOTION by the fit).
 STREAK_MOMENT_MOTION = 1.2
 STREAK_FROM = 2.0  # radii: see BallSearch.streak_from
+# A short streak (no track running) is looked for around the SHORT_STREAK_LOOKS best partial balls of the field search,
+# in a window SHORT_STREAK_WINDOW radii from their centres (a smear of 2 radii plus a disc, with room for a rod across).
+SHORT_STREAK_LOOKS, SHORT_STREAK_WINDOW = 2, 4.0
 BALL_COLOUR_SAMPLES = 40  # whole balls in plain view whose mean colour is the streak search's ball colour
 
 
@@ -155,6 +161,33 @@ class BallSearch:
         if not found:
             return NOTHING
         return min(found, key=lambda c: math.hypot(c.u - expected[0], c.v - expected[1])), None, roi
+
+    def short_streak(self, bgr: np.ndarray):
+        """With no track running: a ball that moved SHORT_STREAK_MOTION radii or more during the exposure, around one
+        of the partial balls the latest field search saw (on_field): the colour box takes only the middle of such a
+        smear, half a disc, too little to start a track as a ball. A candidate with its `streak`, or nothing. Not a
+        figure over its rod, nor one joined to a figure of its colour (the partial balls are neither)."""
+        if not self._partial_history:
+            return NOTHING
+        view = self.view
+        x0, y0, x1, y1 = view.roi
+        rod_axes = view.rod_axes if self.rules.rods_tell_figures(self.colour) else None
+        for c, _, _ in sorted(self._partial_history[-1][1], key=lambda f: -f[0].score)[:SHORT_STREAK_LOOKS]:
+            radius = view.radius_at_pixel(c.u, c.v)
+            half = SHORT_STREAK_WINDOW * radius
+            roi = (max(x0, int(c.u - half)), max(y0, int(c.v - half)), min(x1, int(c.u + half) + 1),
+                   min(y1, int(c.v + half) + 1))
+            if roi[2] - roi[0] < 3 or roi[3] - roi[1] < 3:
+                continue
+            for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self._felt_colour(bgr),
+                                  view.active_region, min_motion=STREAK_MOMENT_MOTION, width=STREAK_WIDTH,
+                                  near=(c.u, c.v), most=1, rod_axes=rod_axes):
+                # The partial ball is the smear's middle: the streak's centre lies within a radius of it.
+                if streak_ball(s, radius, SHORT_STREAK_MOTION) and math.hypot(s.u - c.u, s.v - c.v) <= radius:
+                    candidate = _streak_candidate(s)
+                    if not self.rules.covers_rod(bgr, candidate, self.colour):
+                        return candidate, None, roi
+        return NOTHING
 
     def streak_from(self, c: Candidate, last: KalmanState) -> bool:
         """The streak's line passes within STREAK_FROM radii (and 3 sigma) of the last detection: the ball can have

@@ -61,6 +61,9 @@ FIXTURE_FRAMES = 25  # searches that find a blob at the same pixel before it cou
 # it, it rested for at most STREAK_REST of the exposure, it shows STREAK_SEEN of a disc's worth of shares, is
 # STREAK_WIDTH of a disc's spread across its axis and its fitted contrast is STREAK_CONTRAST of the learned colour's.
 STREAK_MIN_MOTION, STREAK_EXPLAINED, STREAK_REST = 2.0, 0.85, 0.7
+# With no track running, a ball that moved SHORT_STREAK_MOTION radii or more is a streak too (BallSearch.short_streak):
+# its colour box takes only the middle of its smear, half a disc, which starts no track as a ball.
+SHORT_STREAK_MOTION = 1.5
 STREAK_SEEN, STREAK_WIDTH, STREAK_CONTRAST = (0.3, 1.6), (0.7, 1.3), (0.6, 1.15)
 # And the felt behind its pixels is STREAK_FELT as bright as the median felt, their colour STREAK_BIAS levels or less
 # off the plane of the ball's and the felt's, in the median (a red smear for a yellow ball: 0.78 and +9 levels; the
@@ -86,14 +89,14 @@ def solid(c: Candidate, min_ratio: float = 0.75) -> bool:
             and c.spill <= MAX_SPILL)
 
 
-def streak_ball(s: Streak, radius: float) -> bool:
-    """A ball that moved at least STREAK_MIN_MOTION radii while the shutter was open, and nothing else: its fitted
+def streak_ball(s: Streak, radius: float, min_motion: float = STREAK_MIN_MOTION) -> bool:
+    """A ball that moved at least min_motion radii while the shutter was open, and nothing else: its fitted
     model explains the shares around it (a rod's highlight, a figure's lit edge, a hand are not a disc's smear), it
     moved for most of the exposure, enough of the exposure's shares are seen, not more than a ball's worth (a figure
     or a hand of the ball's colour is solid colour over more than a disc), it is as wide as the ball across its axis
     (a path bent by a hit during the exposure is wider: its centre is not measured), the learned colour explains
     its contrast, and its pixels are that colour over felt as bright as the rest (Streak.felt_scale, .bias)."""
-    return (s.motion >= STREAK_MIN_MOTION * radius and s.explained >= STREAK_EXPLAINED and s.rest <= STREAK_REST
+    return (s.motion >= min_motion * radius and s.explained >= STREAK_EXPLAINED and s.rest <= STREAK_REST
             and STREAK_SEEN[0] <= s.area_ratio <= STREAK_SEEN[1] and STREAK_WIDTH[0] <= s.width_ratio <= STREAK_WIDTH[1]
             and STREAK_CONTRAST[0] <= s.contrast <= STREAK_CONTRAST[1]
             and STREAK_FELT[0] <= s.felt_scale <= STREAK_FELT[1] and abs(s.bias) <= STREAK_BIAS)

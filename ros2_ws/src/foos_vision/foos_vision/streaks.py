@@ -14,7 +14,10 @@ streak's axis, the second moment adds the motion: var = r^2 / 4 + m^2 / 12 for a
 A blob of such pixels is fitted with that model on the pixels known to be ball or felt (a rod or a figure over part
 of the streak does not count), and the ball at mid-exposure is where half of its shares lie on either side.
 A figure of the ball's colour is on the plane too, as solid ball colour: given the rods' axes, solid ball colour by an
-axis is taken as hidden, like a figure of another colour, so a streak that touches it is measured without it.
+axis is taken as hidden, like a figure of another colour, so a streak that touches it is measured without it. A figure's
+outline blends it with the felt and passes for a faint share of the ball: a blob too wide or too solid for a ball is
+grouped again by its pixels clear of anything hidden. A streak that a figure hides along one side is narrower than a
+disc: it is fitted when the hidden pixels lie along that side, and is as wide as its fitted model.
 """
 from __future__ import annotations
 
@@ -52,6 +55,13 @@ REST_PEAK = 2.5  # a blob whose largest share is this many times its median is a
 # Solid ball colour within FIGURE_REACH radii of an axis is counted with the figure: a kicked leg reaches its foot's end
 # 4.5 radii from the axis, and a figure's shaded middle (not its colour: unknown) can part its lit ends from the axis.
 FIGURE_MARGIN, FIGURE_REACH = 0.3, 4.5
+# A streak that something (a figure lying level) hides along one side is narrower than a disc by its moments: a blob
+# CUT_WIDTH of a disc's spread or more is fitted when, CUT_PROBE px beyond its edge, CUT_SIDE of one side is hidden; its
+# width is then the fitted streak's, the hidden shares the model's. 0.58 is 55 % of the disc's width seen: the path of
+# the ball's centre is in view, so the fit places the streak across. Half of it (0.53), the path is a guess from an
+# edge, and a line of felt blended with a rod or a figure along it reads so too (on the red-lens case: 0.51-0.54, 15
+# radii long, explained 0.8-0.93, and only their colour, 6-10 levels off the plane, told them from a streak).
+CUT_WIDTH, CUT_PROBE, CUT_SIDE = 0.58, 2.0, 0.5
 
 
 @dataclass
@@ -207,6 +217,32 @@ def half_exposure_point(alpha: np.ndarray, known: np.ndarray, centre: tuple[floa
     at mid-exposure, whatever its speed did during it (struck from rest, slowed by a hit), as long as it went one
     way. The shares that a rod or a figure hides, or that lie outside alpha, are the fitted model's. extent: the
     blob's own reach along the axis (from centre)."""
+    s, _, mass = _completed_shares(alpha, known, centre, axis, params, radius, extent, rest_end)
+    order = np.argsort(s, kind="stable")
+    cumulative = np.cumsum(mass[order])
+    if cumulative[-1] <= 0:
+        return float(params[0])
+    return float(s[order][min(int(np.searchsorted(cumulative, cumulative[-1] / 2)), len(order) - 1)])
+
+
+def completed_spread(alpha: np.ndarray, known: np.ndarray, centre: tuple[float, float], axis: np.ndarray,
+                     params: np.ndarray, radius: float, extent: tuple[float, float], rest_end: float = 1.0) -> float:
+    """The spread of the streak's shares across its axis, over a disc's, with the shares that a rod or a figure hides
+    (or that lie outside alpha) taken from the fitted model: for a streak that something hides along one side."""
+    _, q, mass = _completed_shares(alpha, known, centre, axis, params, radius, extent, rest_end)
+    mass = np.clip(mass, 0.0, None)
+    total = float(mass.sum())
+    if total <= 0:
+        return 0.0
+    mean = float(mass @ q) / total
+    return math.sqrt(max(float(mass @ (q - mean) ** 2) / total, 0.0)) / (radius / 2)
+
+
+def _completed_shares(alpha: np.ndarray, known: np.ndarray, centre: tuple[float, float], axis: np.ndarray,
+                      params: np.ndarray, radius: float, extent: tuple[float, float],
+                      rest_end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(s along, q across, share) on a grid over the streak and half a radius beyond: the shares seen where the pixel
+    is known, the fitted model's elsewhere."""
     c, e, m = params[:3]
     lo = min(extent[0], c - m / 2 - radius) - 0.5 * radius
     hi = max(extent[1], c + m / 2 + radius) + 0.5 * radius
@@ -221,11 +257,7 @@ def half_exposure_point(alpha: np.ndarray, known: np.ndarray, centre: tuple[floa
     seen[inside] = known[ys[inside], xs[inside]]
     mass = _streak_model(params, s, q, radius, rest_end)
     mass[seen] = np.clip(alpha[ys[seen], xs[seen]], -0.3, 1.3)
-    order = np.argsort(s, kind="stable")
-    cumulative = np.cumsum(mass[order])
-    if cumulative[-1] <= 0:
-        return float(c)
-    return float(s[order][min(int(np.searchsorted(cumulative, cumulative[-1] / 2)), len(order) - 1)])
+    return s, q, mass
 
 
 def _segment_window(centre: tuple[float, float], axis: np.ndarray, lo: float, hi: float, pad: float,
@@ -251,12 +283,36 @@ class _Blob:
     disc_share: float  # the shares' sum over the disc's area
     felt_scale: float  # median over its pixels of the felt's brightness behind them (a / (1 - alpha)), over the median felt's
     bias: float  # median over its pixels of the residual off the plane of the ball's and the felt's colours (8-bit levels)
+    cut: bool = False  # narrower than a disc, against something that may hide the ball along one side (_cut_along)
+
+
+def _cut_along(xs: np.ndarray, ys: np.ndarray, centre: tuple[float, float], axis: np.ndarray, hidden: np.ndarray) -> bool:
+    """Something that may hide the ball (hidden, bool) lies along one of the blob's long sides: CUT_SIDE or more of the
+    pixels CUT_PROBE px beyond its edge on that side, one per pixel along the axis, are hidden. A rod across a streak
+    hides a few of them on both sides; a figure lying over one side of it, most on that side."""
+    s = np.round((xs - centre[0]) * axis[0] + (ys - centre[1]) * axis[1]).astype(int)
+    q = -(xs - centre[0]) * axis[1] + (ys - centre[1]) * axis[0]
+    h, w = hidden.shape
+    for side in (-1.0, 1.0):
+        edge = np.full(s.max() - s.min() + 1, -np.inf)
+        np.maximum.at(edge, s - s.min(), side * q)
+        steps = np.nonzero(np.isfinite(edge))[0]
+        along, out = steps + s.min(), side * (edge[steps] + CUT_PROBE)
+        px = np.round(centre[0] + along * axis[0] - out * axis[1]).astype(int)
+        py = np.round(centre[1] + along * axis[1] + out * axis[0]).astype(int)
+        inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
+        if np.count_nonzero(hidden[py[inside], px[inside]]) >= CUT_SIDE * len(steps):
+            return True
+    return False
 
 
 def _blobs(mix: np.ndarray, alpha: np.ndarray, mask: np.ndarray, grouping: np.ndarray,
            radius_at: Callable[[float, float], float], origin: tuple[int, int], min_motion: float,
-           width: tuple[float, float]) -> list[_Blob]:
-    """The blobs of mask (grouped as in grouping) that may be streaks by their moments."""
+           width: tuple[float, float], hidden: np.ndarray, crowded: Optional[np.ndarray] = None) -> list[_Blob]:
+    """The blobs of mask (grouped as in grouping) that may be streaks by their moments. hidden: the pixels that may
+    hide the ball (a blob narrower than a disc against them along one side may be one still, CUT_WIDTH). crowded
+    (bool, the window's shape), when given, is set on the pixels of the groups that are too much for a ball: too
+    solid, more than MOMENT_SHARES discs of shares, or wider than `width`."""
     n, labels, stats, _ = cv2.connectedComponentsWithStats(grouping, connectivity=8)
     x0, y0 = origin
     blobs = []
@@ -265,17 +321,27 @@ def _blobs(mix: np.ndarray, alpha: np.ndarray, mask: np.ndarray, grouping: np.nd
         radius = radius_at(bx + bw / 2 + x0, by + bh / 2 + y0)
         if area < MOMENT_SHARES[0] * math.pi * radius * radius:
             continue  # too few pixels for the shares of a disc, even all ball
-        sub = (labels[by:by + bh, bx:bx + bw] == i) & (mask[by:by + bh, bx:bx + bw] > 0)
-        ys, xs = np.nonzero(sub)
+        # The group, and the pixels of mask next to it (a streak's own pixels beside what hides part of it).
+        right, bottom = min(bx + bw + 1, labels.shape[1]), min(by + bh + 1, labels.shape[0])
+        bx, by = max(bx - 1, 0), max(by - 1, 0)
+        bw, bh = right - bx, bottom - by
+        group = cv2.dilate((labels[by:by + bh, bx:bx + bw] == i).astype(np.uint8), np.ones((3, 3), np.uint8))
+        ys, xs = np.nonzero((group > 0) & (mask[by:by + bh, bx:bx + bw] > 0))
         shares = np.clip(alpha[by:by + bh, bx:bx + bw][ys, xs], 0.0, 1.0)
         total = float(shares.sum())
-        if total <= 0 or shares.max() >= MAX_PEAK or np.count_nonzero(shares >= SOLID_ALPHA) > MAX_SOLID * len(shares):
-            continue
         xs, ys = xs + bx, ys + by
+        if total <= 0:
+            continue
+        if shares.max() >= MAX_PEAK or np.count_nonzero(shares >= SOLID_ALPHA) > MAX_SOLID * len(shares):
+            if crowded is not None:
+                crowded[ys, xs] = True
+            continue
         cu, cv_ = float(xs @ shares / total), float(ys @ shares / total)
         radius = radius_at(cu + x0, cv_ + y0)
         disc = math.pi * radius * radius
         if not MOMENT_SHARES[0] * disc <= total <= MOMENT_SHARES[1] * disc:
+            if crowded is not None and total > MOMENT_SHARES[1] * disc:
+                crowded[ys, xs] = True
             continue
         dx, dy = xs - cu, ys - cv_
         cov = np.array([[shares @ (dx * dx), shares @ (dx * dy)], [shares @ (dx * dy), shares @ (dy * dy)]]) / total
@@ -283,10 +349,15 @@ def _blobs(mix: np.ndarray, alpha: np.ndarray, mask: np.ndarray, grouping: np.nd
         across, along = max(values[0], 1e-6), max(values[1], 1e-6)
         motion = math.sqrt(max(0.0, 12.0 * (along - across)))
         spread = math.sqrt(across) / (radius / 2)
-        if motion >= min_motion * radius and width[0] <= spread <= width[1]:
+        if spread > width[1] and crowded is not None:
+            crowded[ys, xs] = True
+        if motion < min_motion * radius or spread > width[1]:
+            continue
+        cut = spread < width[0] and spread >= CUT_WIDTH and _cut_along(xs, ys, (cu, cv_), vectors[:, 1], hidden)
+        if spread >= width[0] or cut:
             felt, share, residual = mix[ys, xs, 0], mix[ys, xs, 1], mix[ys, xs, 2]
             blobs.append(_Blob(xs, ys, shares, (cu, cv_), vectors[:, 1], motion, spread, radius, total / disc,
-                               float(np.median(felt / np.maximum(1.0 - share, 1e-3))), float(np.median(residual))))
+                               float(np.median(felt / np.maximum(1.0 - share, 1e-3))), float(np.median(residual)), cut))
     return blobs
 
 
@@ -325,11 +396,20 @@ def _measure(blob: _Blob, alpha: np.ndarray, known: np.ndarray, origin: tuple[in
     fits = [(_fit_from(start, rest_end, blob, alpha, known, (lo, hi)), rest_end) for start, rest_end in guesses]
     (params, explained), rest_end = max(fits, key=lambda fit: fit[0][1])
     c = half_exposure_point(alpha, known, (cu, cv_), axis, params, radius, (lo, hi), rest_end)
+    # A blob that something hides along one side is as wide as the fitted streak makes it, the hidden shares its.
+    spread = completed_spread(alpha, known, (cu, cv_), axis, params, radius, (lo, hi), rest_end) if blob.cut else blob.spread
     x0, y0 = origin
     u, v = cu + c * axis[0] - params[1] * axis[1], cv_ + c * axis[1] + params[1] * axis[0]
-    return Streak(u + x0, v + y0, blob.disc_share, axis, float(params[2]), blob.spread, float(blob.shares.max()),
+    return Streak(u + x0, v + y0, blob.disc_share, axis, float(params[2]), spread, float(blob.shares.max()),
                   len(blob.xs), float(params[3]), explained, cu + x0, cv_ + y0, radius, float(params[4]),
                   blob.felt_scale, blob.bias)
+
+
+def _grouping(mask: np.ndarray, plain: np.ndarray, alpha: np.ndarray, k: int) -> np.ndarray:
+    """uint8: mask, its gaps up to k px closed where something may hide the ball (not plain: a rod across a streak) or
+    the ball's share is faint but there (a long streak's beads), not across bare felt."""
+    closed = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
+    return mask | (closed & (~plain | (alpha >= ALPHA_MIN / 2))).astype(np.uint8)
 
 
 def find_streaks(bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Callable[[float, float], float],
@@ -338,7 +418,8 @@ def find_streaks(bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Cal
                  near: Optional[tuple[float, float]] = None, most: int = 3,
                  rod_axes: Optional[np.ndarray] = None) -> list[Streak]:
     """Blobs of mixed ball and felt pixels in roi = (x0, y0, x1, y1), measured as streaks. bridge: gaps up to this
-    many radii (a rod across the streak) are grouped into one blob. Only blobs whose second moments say that they
+    many radii are grouped into one blob where something may hide the ball (a rod across the streak) or its share is
+    faint but there, not across bare felt (_grouping). Only blobs whose second moments say that they
     moved min_motion radii or more and whose spread across their axis is `width` times a disc's (a rod's highlight is
     thinner) are measured, at most `most` of them, the nearest to `near` (a full-frame pixel) first: a fit costs
     5-10 ms. rod_axes: the image of the rods' axes (nonzero on them; BallSearch gives it for a coloured ball): solid
@@ -361,8 +442,16 @@ def find_streaks(bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Cal
         if figures is not None:
             mask[figures] = 0
             known &= ~figures
-    grouping = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k)))
-    blobs = _blobs(mix, alpha, mask, grouping, radius_at, (x0, y0), min_motion, width)
+    crowded = np.zeros(mask.shape, bool)
+    blobs = _blobs(mix, alpha, mask, _grouping(mask, plain, alpha, k), radius_at, (x0, y0), min_motion, width, ~known,
+                   crowded)
+    # A streak that touches the blend of something hidden with the felt (a figure's outline) is one blob with it, too
+    # wide or too solid: such blobs are grouped again by their pixels clear of anything hidden (a streak's own pixels
+    # next to one join the blob they touch), and what of them is a streak by its moments is measured too.
+    if np.any(crowded):
+        clear = (mask & known & crowded).astype(np.uint8)
+        blobs += [blob for blob in _blobs(mix, alpha, mask & crowded, _grouping(clear, known, alpha, k + 2), radius_at,
+                                          (x0, y0), min_motion, width, ~known)]
     if near is not None:
         blobs.sort(key=lambda b: math.hypot(b.centre[0] + x0 - near[0], b.centre[1] + y0 - near[1]))
     if blobs:

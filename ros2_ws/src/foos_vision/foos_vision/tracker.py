@@ -252,16 +252,23 @@ class BallTracker:
         return NOTHING
 
     def _acquire(self, bgr: np.ndarray, t: float):
-        """A new track: a whole ball, or a ball-like blob seen twice running, or a run of partial balls."""
+        """A new track: a whole ball, or a ball-like blob or a short streak seen twice running, or a run of partial
+        balls."""
         found = self.search.on_field(bgr, t)
         if found[0] is None:
-            self._pending = None
             run = self.search.partial_run(self.figures_guarded)
             if run[0] is not None:
+                self._pending = None
                 self.search.forget_partials()
                 self._weak_since = None
                 self._confident_run = 0
-            return run
+                return run
+            # A ball rolling or flying a little too fast for its colour box to take it whole: a short streak, which
+            # like a ball-like blob needs a second sighting (either) to start a track.
+            found = self.search.short_streak(bgr)
+            if found[0] is None:
+                self._pending = None
+                return run
         # A new track needs a ball-like blob in two frames running, close together: the outline of a
         # figure of a similar colour passes for a ball in a single frame now and then, a ball in view
         # does so frame after frame.
