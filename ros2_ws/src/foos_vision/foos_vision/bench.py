@@ -288,14 +288,16 @@ def run(duration: float, cases: list[Case], workdir: Path, seed: int = 1, echo=p
     cv2.setNumThreads(1)
     results = []
     echo(HEADER)
-    for i, case in enumerate(cases):
-        video = render_case(case, workdir, duration, seed + i, reuse)
+    for case in cases:
+        # Each case's seed is its place in its whole set, so that `--cases` renders the same scene as a full run.
+        case_seed = seed + (SHOT_CASES if case.shots else CASES).index(case)
+        video = render_case(case, workdir, duration, case_seed, reuse)
         for masked in {"off": (False,), "on": (True,), "both": (False, True)}[figure_mask]:
             result = evaluate(video, case, masked)
             results.append(result)
             echo(format_row(result))
         if case.fisheye:
-            result = evaluate(video, case, False, calibrated_intrinsics(case, workdir, seed + i), "+calib")
+            result = evaluate(video, case, False, calibrated_intrinsics(case, workdir, case_seed), "+calib")
             results.append(result)
             echo(format_row(result))
     errors = np.array([[r["median_mm"], r["p95_mm"]] for r in results])
