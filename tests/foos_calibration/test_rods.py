@@ -57,6 +57,20 @@ def test_latency_with_a_speed_limit_on_one_rod_is_found_as_such():
     assert speed["team"] == "home" and speed["rod"] == "attack" and close(speed, hidden[1]["params"], 0.08), speed
 
 
+def test_a_common_latency_with_one_rods_acceleration_limit_gives_that_rod_no_latency_of_its_own():
+    """On one drive a dead time and an acceleration limit trade off (both delay the response to a step): fitted
+    together, the limit can come out high and the rest of the delay be taken for a latency of that drive alone."""
+    hidden = [{"name": "rod_latency", "params": {"delay": 0.018}},
+              {"name": "rod_acceleration_limit", "params": {"slide": 32.0, "rotate": 620.0, "team": "away", "rod": "goalie"}}]
+    result = identified(hidden, seed=5)
+    assert sorted((e["name"], e["params"].get("team", ""), e["params"].get("rod", "")) for e in result.effects) == [
+        ("rod_acceleration_limit", "away", "goalie"), ("rod_latency", "", "")], result.effects
+    latency = next(e for e in result.effects if e["name"] == "rod_latency")["params"]
+    accel = next(e for e in result.effects if e["name"] == "rod_acceleration_limit")["params"]
+    assert set(latency) == {"delay"} and abs(latency["delay"] - 0.018) <= 0.005, latency
+    assert close(accel, hidden[1]["params"], 0.2), accel
+
+
 def test_nothing_hidden_names_no_drive_effect():
     result = identified([], seed=7)
     assert result.effects == []

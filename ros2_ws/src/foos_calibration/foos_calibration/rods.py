@@ -14,9 +14,12 @@ Selection, per drive (each of the 16 is fitted alone; drives do not interact): e
 components is fitted by coordinate descent over grids on all samples and on each of two folds (stretches
 of STRETCH seconds, alternating). A component is added (forward) when the held-out squared error drop it
 brings (each fold predicted with the other fold's fit) exceeds MIN_EVIDENCE variances, no fold loses, and
-its value is material. Then across drives: a component named on most drives of an axis is one effect
-for all drives (the median value); a drive whose own value differs materially from that, or a component
-named on few drives, gives a per-drive effect (team, rod, and for the latency the axis).
+its value is material. A drive that names a speed or acceleration limit with a latency (or none) other
+than the common one is refitted with the common latency, and keeps its own only on held-out evidence
+(_hold_common_latency: on one drive a dead time and a rate limit trade off). Then across drives: a
+component named on most drives of an axis is one effect for all drives (the median value); a drive whose
+own value differs materially from that, or a component named on few drives, gives a per-drive effect
+(team, rod, and for the latency the axis).
 
 The gain: joint positions 0.1 s and 0.25 s ahead (drive_limits.predict_positions) from starts on each
 fold, with the parameters fitted on the other fold, against the nominal drives: medians over starts and
@@ -165,12 +168,15 @@ GRIDS = {"latency": DELAY_GRID, "speed": SPEED_GRID, "acceleration": ACCEL_GRID}
 ABSENT = {"latency": 0.0, "speed": 1.0, "acceleration": 1.0}
 
 
-def _fit_subset(team: _Team, subset: tuple[str, ...]) -> tuple[np.ndarray, dict]:
-    """Coordinate descent of `subset` on grids for the 8 drives and 3 fitting sets (all, fold 0, fold 1).
+def _fit_subset(team: _Team, subset: tuple[str, ...], held: dict | None = None) -> tuple[np.ndarray, dict]:
+    """Coordinate descent of `subset` on grids for the 8 drives and 3 fitting sets (all, fold 0, fold 1);
+    components outside it are absent, or held at `held`'s values ({component: (3,) per fitting set}).
 
     Returns rss (8, 3 fits, 3 evaluation sets) and the fitted values {component: (8, 3)} (grid shares)."""
     n = COMMAND_SIZE
     values = {c: np.full((n, 3), ABSENT[c]) for c in COMPONENTS}
+    for c, v in (held or {}).items():
+        values[c] = np.broadcast_to(np.asarray(v, dtype=float), (n, 3)).copy()
     for sweep in range(2 if len(subset) > 1 else 1):
         for c in subset:
             coarse = GRIDS[c]
@@ -255,8 +261,47 @@ def _select_team(team: _Team, progress) -> list[dict]:
             c, _, chosen, entry = best
             info[c] = {**entry, "named": True}
         values = fits[chosen][1]
-        out.append({"chosen": chosen, "values": {c: values[c][d] for c in chosen}, "evidence": info})
+        rss = fits[chosen][0][d]
+        scale2 = max(noise2[d], rss[0, 0] / max(1.0, float(team.weight[d].sum()) - len(chosen)))
+        out.append({"chosen": chosen, "values": {c: values[c][d] for c in chosen}, "evidence": info, "rss": rss, "scale2": scale2})
     return out
+
+
+def _hold_common_latency(teams: list[_Team], per_drive: list[dict]) -> None:
+    """A drive's latency, where that drive also names a speed or acceleration limit, other than the common one
+    only on its own evidence.
+
+    On one drive a dead time and a rate limit trade off (both delay the response to a step): a limit fitted
+    high leaves the rest of the delay to a dead time of its own, one fitted low takes in the dead time (the
+    drive names none), with held-out errors near the noise either way. The common latency (the median of the
+    drives that name one, where most do; else none) acts on every drive, so such a drive is refitted with its
+    latency held at the common one and its other components refitted. It keeps its own latency (or none) only
+    where that beats the refit by MIN_EVIDENCE held out, with no fold losing; otherwise it takes the refit."""
+    named = [d["values"]["latency"] for d in per_drive if "latency" in d["chosen"]]
+    common = np.median(named, axis=0) if len(named) > len(per_drive) / 2 else np.zeros(3)  # per fitting set
+    for i, team in enumerate(teams):
+        suspects = {}
+        for d in range(COMMAND_SIZE):
+            drive = per_drive[i * COMMAND_SIZE + d]
+            others = tuple(c for c in drive["chosen"] if c != "latency")
+            own = float(drive["values"]["latency"][0]) if "latency" in drive["chosen"] else 0.0
+            if others and _differs("latency", own, float(common[0])):
+                suspects.setdefault(others, []).append(d)
+        for others, drives in suspects.items():
+            rss, values = _fit_subset(team, others, {"latency": common})
+            for d in drives:
+                drive = per_drive[i * COMMAND_SIZE + d]
+                drops = [(rss[d, 1, 2] - drive["rss"][1, 2]) / drive["scale2"], (rss[d, 2, 1] - drive["rss"][2, 1]) / drive["scale2"]]
+                earned = sum(drops) >= MIN_EVIDENCE and min(drops) >= -max(10.0, MIN_FOLD_SHARE * sum(drops))
+                drive["evidence"]["latency"] = {**drive["evidence"]["latency"],
+                                                "own_over_common_noise_variances": round(float(sum(drops)), 1),
+                                                "own_over_common_per_fold": [round(float(x), 1) for x in drops]}
+                if earned:
+                    continue
+                drive["evidence"]["latency"]["held_at_common"] = True
+                drive["chosen"] = tuple(c for c in COMPONENTS if c in others or (c == "latency" and common[0] > 0))
+                drive["values"] = {c: values[c][d] for c in drive["chosen"]}  # a latency named is the common one
+                drive["rss"] = rss[d]
 
 
 # --- from drives to effects ------------------------------------------------------------------------
@@ -431,9 +476,11 @@ def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None]
              seed: int = 0) -> RodResult:
     """The drive effects the game supports, with evidence, and the report's `rods` block."""
     progress("fitting the rod drives (latency, speed and acceleration limits) per drive, on two folds")
+    teams = _teams(data, model)
     per_drive = []
-    for team in _teams(data, model):
+    for team in teams:
         per_drive += _select_team(team, progress)
+    _hold_common_latency(teams, per_drive)
     effects, basis = combine(per_drive, model, 0)
     fold_effects = [combine(per_drive, model, column)[0] for column in (1, 2)]  # fitted on fold 0, on fold 1
     for effect in effects:
@@ -471,7 +518,9 @@ def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None]
                    "of /joint_states against the commands; slide samples at a travel stop left out",
             "selection": f"forward per drive: held-out squared-error drop (2 alternating folds of {STRETCH:g} s stretches) over "
                          f"{MIN_EVIDENCE:g} noise variances and material; one effect for all drives when most drives of the axis "
-                         "name it (median value), a per-drive effect where a drive differs materially or few drives name it",
+                         "name it (median value), a per-drive effect where a drive differs materially or few drives name it; "
+                         "a drive with a limit of its own keeps a latency other than the common one only on its held-out "
+                         f"evidence ({MIN_EVIDENCE:g} noise variances) over a refit with the common latency",
             "gain": "joint position error 0.1 s and 0.25 s ahead from starts every 0.2 s, each predicted with the parameters "
                     "fitted on the other fold; medians over starts and drives, slides in mm, rotations in degrees, bootstrap "
                     "95 % intervals over starts; slides that come within 1 cm of a travel stop before the horizon left out "
