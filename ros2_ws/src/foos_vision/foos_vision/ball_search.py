@@ -197,7 +197,8 @@ class BallSearch:
         start = view.table_to_pixel(last.x[:2])
         ppm = view.mapping.pixels_per_metre(last.x[:2])
         sigma = math.sqrt(max(np.linalg.eigvalsh(last.P[:2, :2]).max(), 0.0)) * ppm
-        off = abs(float(np.cross(c.streak.axis, np.array([start[0] - c.u, start[1] - c.v]))))
+        axis = c.streak.axis  # distance of the last detection from the streak's line (a 2-D cross product)
+        off = abs(float(axis[0] * (start[1] - c.v) - axis[1] * (start[0] - c.u)))
         return off <= STREAK_FROM * view.radius_at_pixel(c.u, c.v) + 3.0 * sigma
 
     def measurement_covariance(self, c: Candidate, std: float) -> Optional[np.ndarray]:
