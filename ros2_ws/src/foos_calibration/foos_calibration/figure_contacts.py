@@ -202,8 +202,13 @@ class RodLines:
         return np.min(np.abs(xy[:, 1:2] - self.rod_y[None]), axis=1) < self.reach
 
     def contact_frames(self, t: np.ndarray, xy: np.ndarray) -> np.ndarray:
-        n = len(t)
         change, _speed, noise = velocity_change(t, xy, WINDOW)
+        return self.sudden_changes(xy, change, noise, contact_frames(self.geometry, t, xy, WINDOW))
+
+    def sudden_changes(self, xy: np.ndarray, change: np.ndarray, noise: float, wall_frames: np.ndarray) -> np.ndarray:
+        """contact_frames from the track's velocity_change (change, noise) and wall contact frames, where the caller
+        has them already."""
+        n = len(xy)
         threshold = max(ROD_CHANGE_FLOOR, ROD_CHANGE_NOISE_SIGMAS * noise)
         if n < 2 * WINDOW or not np.any(change > threshold):
             return np.zeros(n, dtype=bool)
@@ -211,7 +216,7 @@ class RodLines:
         padded = np.concatenate([np.zeros(r), change, np.zeros(r)])
         peak = change >= windows(padded, 2 * r + 1).max(axis=1)
         # A change whose windows reach a wall contact is the wall's: without the figures' poses nothing says otherwise.
-        wall = _spread(contact_frames(self.geometry, t, xy, WINDOW), r)
+        wall = _spread(wall_frames, r)
         event = peak & (change > threshold) & self.near_rod(xy) & ~wall
         # The frames around the touch: those whose velocity windows both saw it.
         return _spread(event, PEAK_HALF_WIDTH)
@@ -257,18 +262,19 @@ class PosedFigures:
             least[:-1] = np.minimum(least[:-1], between)
             least[1:] = np.minimum(least[1:], between)
         near = least < FIGURE_ZONE
-        change, speed, _noise = velocity_change(t, xy, WINDOW)
+        change, speed, noise = velocity_change(t, xy, WINDOW)
         dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
         # A change whose windows reach a wall contact is the wall's (a bounce spreads over +/- WINDOW frames)
         # unless a figure was close too.
-        wall = _spread(contact_frames(self.geometry, t, xy, WINDOW), WINDOW)
+        wall_frames = contact_frames(self.geometry, t, xy, WINDOW)
+        wall = _spread(wall_frames, WINDOW)
         near |= (change > CHANGE_WITH_JOINTS) & (least < 0.01 + 1.5 * speed * dt) & (~wall | (least < WALL_OR_FIGURE))
         # The gaps are those of a ball resting on the field. A hard kick sends it flying (8 cm high on the fast
         # physics) into figures raised above the field, which those gaps cannot see, and where the encoders have a
         # gap the figures are not placed at all: a sudden change within a figure's reach of a rod line that is no
         # wall's is a figure's touch whatever the poses say, as without joint states. Left uncut, such a touch
         # bends one rolling segment, and a small deep dent at the rod line absorbs the bend.
-        return near | self.fallback.contact_frames(t, xy)
+        return near | self.fallback.sudden_changes(xy, change, noise, wall_frames)
 
 
 def for_game(params: dict, joints: JointTrack | None, figures: FigureModel | None = None) -> PosedFigures | RodLines:

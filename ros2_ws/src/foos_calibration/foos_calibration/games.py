@@ -288,35 +288,32 @@ class _BallPush:
                                                        sim.ball_angular_velocity())
 
 
+def _hidden_value(effects: Sequence[dict], name: str, key: str, low: float, high: float, unit: str = "") -> float | None:
+    """The `key` of the one hidden effect `name` (checked to lie in [low, high]), None without one."""
+    values = []
+    for effect in effects:
+        if effect.get("name") == name:
+            value = (effect.get("params") or {}).get(key)
+            if not isinstance(value, (int, float)) or not (low <= value <= high):
+                raise GameError(f"effect `{name}` needs `{key}` in [{low}, {high}]{unit}")
+            values.append(float(value))
+    if len(values) > 1:
+        raise GameError(f"one `{name}` at most")
+    return values[0] if values else None
+
+
 def _camera_delay(effects: Sequence[dict]) -> float:
     """s: the hidden camera latency (camera_latency's `delay`), 0 without one."""
-    delays = []
-    for effect in effects:
-        if effect.get("name") in CAMERA_EFFECTS:
-            delay = (effect.get("params") or {}).get("delay")
-            if not isinstance(delay, (int, float)) or not (0 <= delay <= MAX_CAMERA_DELAY):
-                raise GameError(f"effect `camera_latency` needs `delay` in [0, {MAX_CAMERA_DELAY}] s")
-            delays.append(float(delay))
-    if len(delays) > 1:
-        raise GameError("one `camera_latency` at most")
-    return delays[0] if delays else 0.0
+    delay = _hidden_value(effects, CAMERA_EFFECTS[0], "delay", 0, MAX_CAMERA_DELAY, " s")
+    return delay if delay is not None else 0.0
 
 
 def _with_figure_restitution(params: dict, effects: Sequence[dict]) -> dict:
     """`params` with the figures' restitution set to a hidden figure_restitution's `coefficient` (a copy)."""
-    coefficients = []
-    for effect in effects:
-        if effect.get("name") in FIGURE_EFFECTS:
-            value = (effect.get("params") or {}).get("coefficient")
-            low, high = FIGURE_RESTITUTION_RANGE
-            if not isinstance(value, (int, float)) or not (low <= value <= high):
-                raise GameError(f"effect `figure_restitution` needs `coefficient` in [{low}, {high}]")
-            coefficients.append(float(value))
-    if len(coefficients) > 1:
-        raise GameError("one `figure_restitution` at most")
-    if not coefficients:
+    coefficient = _hidden_value(effects, FIGURE_EFFECTS[0], "coefficient", *FIGURE_RESTITUTION_RANGE)
+    if coefficient is None:
         return params
-    return {**params, "figures": {**params["figures"], "restitution": coefficients[0]}}
+    return {**params, "figures": {**params["figures"], "restitution": coefficient}}
 
 
 def _measure(options, rng, sim, camera_delay, t, ball, joint_p, joint_v, command_t, commands, serves, goals) -> GameRecording:

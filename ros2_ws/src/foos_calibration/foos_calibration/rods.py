@@ -224,6 +224,23 @@ def _material(component: str, share: float, team: _Team, drive: int) -> bool:
     return share <= MATERIAL_ACCEL
 
 
+def _variance_unit(noise2: float, rss: np.ndarray, weight: float, components: int) -> float:
+    """A drive's variance unit for evidence: its noise variance, or its fit's residual scatter (rss (3 fits, 3 sets)
+    over `weight` samples less the fitted components) when that is larger."""
+    return max(noise2, float(rss[0, 0]) / max(1.0, weight - components))
+
+
+def _held_out_drops(before: np.ndarray, after: np.ndarray, unit: float) -> list[float]:
+    """Held-out squared-error drops from fit `before` to fit `after` (each (3 fits, 3 sets)), in `unit`: fold 1
+    under fold 0's fit, and fold 0 under fold 1's."""
+    return [float(before[1, 2] - after[1, 2]) / unit, float(before[2, 1] - after[2, 1]) / unit]
+
+
+def _earns(drops: list[float]) -> bool:
+    """MIN_EVIDENCE held out in all, and no fold worse by more than MIN_FOLD_SHARE of it (or 10)."""
+    return sum(drops) >= MIN_EVIDENCE and min(drops) >= -max(10.0, MIN_FOLD_SHARE * sum(drops))
+
+
 def _select_team(team: _Team, progress) -> list[dict]:
     """Per drive of the team: the named components, their values (all data, fold 0, fold 1) and evidence."""
     fits = {}
@@ -243,16 +260,14 @@ def _select_team(team: _Team, progress) -> list[dict]:
                     continue
                 subset = tuple(x for x in COMPONENTS if x in chosen + (c,))
                 rss, values = fits[subset]
-                dof = max(1.0, float(team.weight[d].sum()) - len(subset))
-                scale2 = max(noise2[d], rss[d, 0, 0] / dof)
-                # Held out: fold 1 under fold 0's fit, and fold 0 under fold 1's.
-                drops = [(current[1, 2] - rss[d, 1, 2]) / scale2, (current[2, 1] - rss[d, 2, 1]) / scale2]
+                scale2 = _variance_unit(noise2[d], rss[d], float(team.weight[d].sum()), len(subset))
+                drops = _held_out_drops(current, rss[d], scale2)
                 share = float(values[c][d, 0])
                 entry = {"held_out_error_drop_noise_variances": round(float(sum(drops)), 1),
                          "per_fold": [round(float(x), 1) for x in drops],
                          "residual_scatter_over_noise": round(float(np.sqrt(scale2 / noise2[d])), 2),
                          "material": bool(_material(c, share, team, d))}
-                ok = sum(drops) >= MIN_EVIDENCE and min(drops) >= -max(10.0, MIN_FOLD_SHARE * sum(drops)) and entry["material"]
+                ok = _earns(drops) and entry["material"]
                 if ok and (best is None or sum(drops) > best[1]):
                     best = (c, sum(drops), subset, entry)
                 info[c] = entry  # the latest look at each candidate not (yet) named
@@ -262,7 +277,7 @@ def _select_team(team: _Team, progress) -> list[dict]:
             info[c] = {**entry, "named": True}
         values = fits[chosen][1]
         rss = fits[chosen][0][d]
-        scale2 = max(noise2[d], rss[0, 0] / max(1.0, float(team.weight[d].sum()) - len(chosen)))
+        scale2 = _variance_unit(noise2[d], rss, float(team.weight[d].sum()), len(chosen))
         out.append({"chosen": chosen, "values": {c: values[c][d] for c in chosen}, "evidence": info, "rss": rss, "scale2": scale2})
     return out
 
@@ -291,8 +306,8 @@ def _hold_common_latency(teams: list[_Team], per_drive: list[dict]) -> None:
             rss, values = _fit_subset(team, others, {"latency": common})
             for d in drives:
                 drive = per_drive[i * COMMAND_SIZE + d]
-                drops = [(rss[d, 1, 2] - drive["rss"][1, 2]) / drive["scale2"], (rss[d, 2, 1] - drive["rss"][2, 1]) / drive["scale2"]]
-                earned = sum(drops) >= MIN_EVIDENCE and min(drops) >= -max(10.0, MIN_FOLD_SHARE * sum(drops))
+                drops = _held_out_drops(rss[d], drive["rss"], drive["scale2"])
+                earned = _earns(drops)
                 drive["evidence"]["latency"] = {**drive["evidence"]["latency"],
                                                 "own_over_common_noise_variances": round(float(sum(drops)), 1),
                                                 "own_over_common_per_fold": [round(float(x), 1) for x in drops]}
