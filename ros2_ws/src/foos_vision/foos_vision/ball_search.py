@@ -142,16 +142,13 @@ class BallSearch:
         reach = (SHOT_SPEED * since) * ppm + 3.0 * sigma + radius
         start = view.table_to_pixel(last.x[:2])
         expected = view.table_to_pixel(predicted.x[:2])
-        x0, y0, x1, y1 = view.roi
-        roi = (max(x0, int(start[0] - reach - radius)), max(y0, int(start[1] - reach - radius)),
-               min(x1, int(start[0] + reach + radius) + 1), min(y1, int(start[1] + reach + radius) + 1))
-        if roi[2] - roi[0] < 3 or roi[3] - roi[1] < 3:
+        roi = _square(view.roi, start, reach + radius)
+        if roi is None:
             return NOTHING
         found = []
         for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self._felt_colour(bgr),
                               view.active_region, min_motion=STREAK_MOMENT_MOTION, width=STREAK_WIDTH,
-                              near=(float(expected[0]), float(expected[1])),
-                              rod_axes=view.rod_axes if self.rules.rods_tell_figures(self.colour) else None):
+                              near=(float(expected[0]), float(expected[1])), rod_axes=self._figure_axes()):
             r = view.radius_at_pixel(s.u, s.v)
             if not streak_ball(s, r) or math.hypot(s.u - start[0], s.v - start[1]) > reach:
                 continue
@@ -170,14 +167,11 @@ class BallSearch:
         if not self._partial_history:
             return NOTHING
         view = self.view
-        x0, y0, x1, y1 = view.roi
-        rod_axes = view.rod_axes if self.rules.rods_tell_figures(self.colour) else None
+        rod_axes = self._figure_axes()
         for c, _, _ in sorted(self._partial_history[-1][1], key=lambda f: -f[0].score)[:SHORT_STREAK_LOOKS]:
             radius = view.radius_at_pixel(c.u, c.v)
-            half = SHORT_STREAK_WINDOW * radius
-            roi = (max(x0, int(c.u - half)), max(y0, int(c.v - half)), min(x1, int(c.u + half) + 1),
-                   min(y1, int(c.v + half) + 1))
-            if roi[2] - roi[0] < 3 or roi[3] - roi[1] < 3:
+            roi = _square(view.roi, (c.u, c.v), SHORT_STREAK_WINDOW * radius)
+            if roi is None:
                 continue
             for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self._felt_colour(bgr),
                                   view.active_region, min_motion=STREAK_MOMENT_MOTION, width=STREAK_WIDTH,
@@ -188,6 +182,10 @@ class BallSearch:
                     if not self.rules.covers_rod(bgr, candidate, self.colour):
                         return candidate, None, roi
         return NOTHING
+
+    def _figure_axes(self) -> Optional[np.ndarray]:
+        """The rods' axes for the streak search, where they tell figures of the ball's colour (a coloured ball)."""
+        return self.view.rod_axes if self.rules.rods_tell_figures(self.colour) else None
 
     def streak_from(self, c: Candidate, last: KalmanState) -> bool:
         """The streak's line passes within STREAK_FROM radii (and 3 sigma) of the last detection: the ball can have
@@ -355,11 +353,9 @@ class BallSearch:
         score too low for a ball count only within partial_reach px (a half ball where one is expected)."""
         view = self.view
         h, w = bgr.shape[:2]
-        x0, y0 = max(0, int(centre[0] - half)), max(0, int(centre[1] - half))
-        x1, y1 = min(w, int(centre[0] + half) + 1), min(h, int(centre[1] + half) + 1)
-        if x1 - x0 < 3 or y1 - y0 < 3:
+        roi = _square((0, 0, w, h), centre, half)
+        if roi is None:
             return NOTHING
-        roi = (x0, y0, x1, y1)
         candidates, lab, _ = self.detector.candidates(bgr, roi, view.radius_at_pixel, view.min_radius,
                                                       view.active_region, use_band=use_band, band_seeds=band_seeds,
                                                       hidden=view.hidden, felt_ab=view.felt_ab)
@@ -371,6 +367,13 @@ class BallSearch:
             return None, lab, roi
         best = min(near, key=lambda c: math.hypot(c.u - centre[0], c.v - centre[1]) / gate - c.score)
         return best, lab, roi
+
+
+def _square(bounds: tuple[int, int, int, int], centre, half: float) -> Optional[tuple[int, int, int, int]]:
+    """(x0, y0, x1, y1): the pixels within half of centre (u, v), clipped to bounds; None when under 3 px a side."""
+    x0, y0 = max(bounds[0], int(centre[0] - half)), max(bounds[1], int(centre[1] - half))
+    x1, y1 = min(bounds[2], int(centre[0] + half) + 1), min(bounds[3], int(centre[1] + half) + 1)
+    return (x0, y0, x1, y1) if x1 - x0 >= 3 and y1 - y0 >= 3 else None
 
 
 def _streak_candidate(s: Streak) -> Candidate:

@@ -450,8 +450,8 @@ def find_streaks(bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Cal
     # next to one join the blob they touch), and what of them is a streak by its moments is measured too.
     if np.any(crowded):
         clear = (mask & known & crowded).astype(np.uint8)
-        blobs += [blob for blob in _blobs(mix, alpha, mask & crowded, _grouping(clear, known, alpha, k + 2), radius_at,
-                                          (x0, y0), min_motion, width, ~known)]
+        blobs += _blobs(mix, alpha, mask & crowded, _grouping(clear, known, alpha, k + 2), radius_at, (x0, y0), min_motion,
+                        width, ~known)
     if near is not None:
         blobs.sort(key=lambda b: math.hypot(b.centre[0] + x0 - near[0], b.centre[1] + y0 - near[1]))
     if blobs:
