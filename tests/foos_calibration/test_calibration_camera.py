@@ -30,7 +30,7 @@ def test_tilt_hidden_in_a_rendered_video_is_found(tmp_path, ros_env):
     table = tmp_path / "tilted.yaml"
     table.write_text(f"base: regulation_table\neffects:\n  - {{name: table_tilt, params: {{slope_x: {TRUE_SLOPE}, slope_y: 0.0}}}}\n")
     video = tmp_path / "rolls.mp4"
-    run("foos_vision", "render_video", str(video), "--scenario", "rolls", "--duration", "12", "--fps", "60",
+    run("foos_sim", "render_video", str(video), "--scenario", "rolls", "--duration", "12", "--fps", "60",
         "--width", "640", "--height", "480", "--params-file", str(table), "--seed", "3", "--quiet")
     run("foos_vision", "track_video", str(video), "--markers", str(tmp_path / "rolls.markers.yaml"),
         "--out", str(tmp_path / "bag"), "--quiet")

@@ -14,9 +14,9 @@ import pytest
 import yaml
 
 from foos_bag import BagWriter, write_joint_states
+from foos_core.camera_model import CameraConfig
 from foos_core.names import JOINT_NAMES
 from foos_core.table_geometry import TableGeometry
-from foos_vision.camera import CameraConfig
 
 BALL_Z = TableGeometry.nominal().ball_centre_height
 # HSV hue (OpenCV, 0-180) of each drawn ball: magenta measured disc, orange first table's ring, cyan second's.

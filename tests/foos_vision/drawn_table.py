@@ -6,7 +6,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from foos_vision.markers import MarkerLayout, load_markers
+from foos_core.markers import MarkerLayout, load_markers
 
 SCALE = 400.0  # px per m: u = 319.5 + SCALE * y, v = 239.5 + SCALE * x (a camera straight above)
 FELT_BGR = (40, 140, 30)

@@ -9,13 +9,18 @@ from pathlib import Path
 from ..user_env import workspace_env
 
 ROOT = Path(__file__).resolve().parents[2]
+# The simulated camera's command lives in foos_sim (rendering the table is the simulator's job).
+SIM_COMMANDS = {"render_video"}
+
+
 def ros2_run(executable: str, *args: str, timeout: float = 120, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run(["ros2", "run", "foos_vision", executable, *args], capture_output=True, text=True,
+    package = "foos_sim" if executable in SIM_COMMANDS else "foos_vision"
+    return subprocess.run(["ros2", "run", package, executable, *args], capture_output=True, text=True,
                           env=workspace_env(), timeout=timeout, cwd=cwd or ROOT)
 
 
 def render(out: Path, *args: str, timeout: float = 120) -> Path:
-    """A rendered video (and its truth, camera and markers files) via `ros2 run foos_vision render_video`."""
+    """A rendered video (and its truth, camera and markers files) via `ros2 run foos_sim render_video`."""
     result = ros2_run("render_video", str(out), "--quiet", *args, timeout=timeout)
     assert result.returncode == 0, result.stderr
     return out

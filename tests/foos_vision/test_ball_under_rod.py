@@ -14,10 +14,10 @@ import cv2
 import numpy as np
 import pytest
 
+from foos_core.markers import MarkerLayout
 from foos_core.names import JOINT_NAMES
 from foos_vision.ball_search import PARTIAL_RUN
 from foos_vision.figure_mask import FigureGeometry, projection_from_mapping
-from foos_vision.markers import MarkerLayout
 from foos_vision.rod_lines import rod_geometry, rod_mask
 from foos_vision.tracker import BallTracker, TrackerConfig
 

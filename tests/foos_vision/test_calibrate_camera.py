@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import yaml
 
-from foos_vision.boards import board_views
-from foos_vision.camera import CameraConfig, load_intrinsics
+from foos_core.camera_model import CameraConfig, load_intrinsics
+from foos_sim.camera.boards import board_views
 from foos_vision.geometry import Lens
 
 from .helpers import ros2_run
@@ -72,7 +72,7 @@ def test_calibrate_camera_without_a_board_says_so(tmp_path):
 
 
 # A wide fisheye (110 degrees of vertical field, OpenCV's equidistant model) and its boards, drawn by
-# foos_vision.boards through that exact lens.
+# foos_sim.camera.boards through that exact lens.
 FISHEYE = dict(width=640, height=480, fovy=110.0, model="fisheye", distortion=(0.06, -0.03, 0.012, -0.004))
 
 

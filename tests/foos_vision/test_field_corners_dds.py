@@ -14,7 +14,7 @@ from sensor_msgs.msg import Image
 
 from foos_core.stamps import seconds_to_stamp, stamp_to_seconds
 from foos_core.table_geometry import TableGeometry
-from foos_vision.render import read_truth
+from foos_sim.camera.render import read_truth
 
 from .helpers import stop_node
 from .test_field_corners import clicked, field_corner_pixels, rendered_camera

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from foos_bag import BagWriter, write_ball_detections, write_joint_states
+from foos_core.camera_model import load_camera
 from foos_core.names import JOINT_NAMES
-from foos_vision.camera import load_camera
+from foos_sim.camera.render import read_joints
 from foos_vision.figure_mask import FigureGeometry, JointTrack, joint_track, projection_from_mapping
 from foos_vision.geometry import PlaneMapping
-from foos_vision.render import read_joints
 from foos_vision.tracker import BallTracker, TrackerConfig
 
 from . import drawn_table as dt

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from foos_vision.render import read_truth
+from foos_sim.camera.render import read_truth
 
 from .helpers import render, ros2_run
 

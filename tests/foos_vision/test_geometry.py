@@ -7,10 +7,10 @@ import cv2
 import numpy as np
 import pytest
 
-from foos_vision.camera import FISHEYE_RENDER_SCALE, CameraConfig, Intrinsics, load_camera
+from foos_core.camera_model import FISHEYE_RENDER_SCALE, CameraConfig, Intrinsics, load_camera
+from foos_core.markers import BALL_CENTRE_HEIGHT, MarkerLayout, load_markers
 from foos_vision.errors import CameraConfigError, MarkersError
 from foos_vision.geometry import Lens, fit_mapping, tag_centre
-from foos_vision.markers import BALL_CENTRE_HEIGHT, MarkerLayout, load_markers
 from foos_vision.velocity import ConstantVelocityKalman, central_differences
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from foos_bag import read_ball_detections
-from foos_vision.render import read_truth
+from foos_sim.camera.render import read_truth
 
 from .helpers import render, ros2_run
 

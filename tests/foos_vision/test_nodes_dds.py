@@ -12,7 +12,7 @@ from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 
-from foos_vision.render import read_truth
+from foos_sim.camera.render import read_truth
 
 from .helpers import stop_node, workspace_env
 

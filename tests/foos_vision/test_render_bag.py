@@ -8,9 +8,9 @@ import pytest
 import yaml
 
 from foos_bag import BagWriter, write_ball_detections, write_ball_states, write_joint_states
+from foos_core.camera_model import CameraConfig
 from foos_core.names import JOINT_NAMES
-from foos_vision.camera import CameraConfig
-from foos_vision.render import read_joints, read_truth
+from foos_sim.camera.render import read_joints, read_truth
 
 from .helpers import render, ros2_run
 

@@ -1,5 +1,5 @@
 """Shots filmed at 25 fps with the shutter open the whole frame interval, as a user meets them: a bag of shots
-(`python -m foos_vision.shots`), `render_video --bag` with motion blur, then `track_video`. While the ball flies it
+(`python -m foos_sim.camera.shots`), `render_video --bag` with motion blur, then `track_video`. While the ball flies it
 is a faint streak many of its widths long; the tracker must find it at its mid-exposure centre.
 
 At 1280x720 the ball's radius is 8 px. At 640x480 (5.4 px) the same shots were all found but placed within 10 mm
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from foos_core.table_params import REFERENCE_PARAMS_FILE
+from foos_sim.camera.render import read_truth
 from foos_vision.bench import hit_during_exposure
-from foos_vision.render import read_truth
 
 from .helpers import ROOT, render, ros2_run, workspace_env
 
@@ -22,7 +22,7 @@ FAST = 1.5  # m/s: at 25 fps with the shutter open all the frame interval, a str
 
 
 def shots(bag, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "foos_vision.shots", str(bag), *args], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "foos_sim.camera.shots", str(bag), *args], capture_output=True, text=True,
                           env=workspace_env(), timeout=120, cwd=ROOT)
 
 

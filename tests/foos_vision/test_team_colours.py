@@ -9,7 +9,7 @@ import pytest
 
 from foos_bag import read_ball_detections
 from foos_core.table_params import REFERENCE_PARAMS_FILE
-from foos_vision.render import read_truth
+from foos_sim.camera.render import read_truth
 from foos_vision.video_io import VideoReader
 
 from .helpers import render, ros2_run

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from foos_bag import read_ball_detections, read_ball_states, topics
-from foos_vision.render import read_truth
+from foos_sim.camera.render import read_truth
 
 from .helpers import render, ros2_run
 

@@ -1,6 +1,6 @@
 """`ros2 run foos_calibration twin_video BAG --params-file A.yaml [--params-file B.yaml] --out twin.mp4`: a video of
 the measured ball beside each table's simulation, restarted from every measured free stretch (foos_calibration.twin),
-filmed by foos_vision's synthetic camera."""
+filmed by the simulated camera (foos_sim.camera)."""
 from __future__ import annotations
 
 import argparse
@@ -13,16 +13,14 @@ from typing import Sequence
 import numpy as np
 
 from foos_bag import BagError
+from foos_core.camera_model import load_camera
+from foos_core.markers import DEFAULT_MARKERS_FILE, load_markers
 from foos_core.names import BALL_DETECTION_TOPIC, JOINT_NAMES, JOINT_STATES_TOPIC
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import ParamsError, load_params
-from foos_sim.model_builder import build_mjcf
-from foos_sim.simulation import TableSimulation
-from foos_vision.bag_inputs import RecordedStates, read_recorded_states
-from foos_vision.camera import load_camera
-from foos_vision.errors import VisionError
-from foos_vision.markers import DEFAULT_MARKERS_FILE, load_markers
-from foos_vision.render import (
+from foos_sim.camera.errors import RenderError
+from foos_sim.camera.recorded import RecordedStates, read_recorded_states
+from foos_sim.camera.render import (
     MEASURED_COLOUR,
     BallMark,
     BallOverlay,
@@ -32,7 +30,9 @@ from foos_vision.render import (
     write_camera,
     write_video,
 )
-from foos_vision.scenarios import StateReplay, detections_at
+from foos_sim.camera.scenarios import StateReplay, detections_at
+from foos_sim.model_builder import build_mjcf
+from foos_sim.simulation import TableSimulation
 
 from .figure_contacts import JointTrack, for_game
 from .tracks import DataError, analyse, validate
@@ -52,7 +52,7 @@ The measured detections (/ball/detection) are cut into free stretches by calibra
 (tracks, wall contacts, rolling segments). At each stretch, every table's simulation restarts: its ball
 state is estimated from the stretch's first 0.3 s of rolling under that table's dynamics, then MuJoCo
 rolls it on that table until the next restart on the same track or the end of the track (at most 3 s).
-Drawn over foos_vision's synthetic camera: the measured ball (magenta disc), each table's predicted ball
+Drawn over the simulated camera (foos_sim.camera): the measured ball (magenta disc), each table's predicted ball
 (a ring: orange for the first --params-file, cyan for the second), the path each came along, and a
 legend with each prediction's distance to the measured ball. The rods follow /joint_states; a bag
 without them (free rolls) is filmed with the rods turned up, figures horizontal.
@@ -116,32 +116,32 @@ def trail_of(prediction: TablePrediction, t: float, geometry: TableGeometry) -> 
 def film(args: argparse.Namespace, progress) -> str:
     out = Path(args.out)
     if out.suffix.lower() != ".mp4":
-        raise VisionError(f"{out}: the output must be an .mp4 file")
+        raise RenderError(f"{out}: the output must be an .mp4 file")
     outputs = [out, out.with_suffix(".camera.yaml"), out.with_suffix(".csv")]
     existing = [str(o) for o in outputs if o.exists()]
     if existing and not args.overwrite:
-        raise VisionError(f"{existing[0]} exists (use --overwrite to replace it)")
+        raise RenderError(f"{existing[0]} exists (use --overwrite to replace it)")
     if len(args.params_file) > len(TABLE_COLOURS):
-        raise VisionError(f"--params-file is given {len(args.params_file)} times; at most {len(TABLE_COLOURS)} tables are drawn")
+        raise RenderError(f"--params-file is given {len(args.params_file)} times; at most {len(TABLE_COLOURS)} tables are drawn")
     if not (args.fps > 0 and args.start >= 0 and (args.duration is None or args.duration > 0)
             and (args.fovy is None or 0 < args.fovy < 170)):
-        raise VisionError("--fps and --duration must be positive, --start at least 0, --fovy between 0 and 170")
+        raise RenderError("--fps and --duration must be positive, --start at least 0, --fovy between 0 and 170")
     camera = load_camera(args.camera).with_(width=args.width, height=args.height, fps=args.fps, fovy=args.fovy)
     if camera.width % 2 or camera.height % 2 or camera.width < 16 or camera.height < 16:
-        raise VisionError("--width and --height must be even (mp4v) and at least 16")
+        raise RenderError("--width and --height must be even (mp4v) and at least 16")
     tables = [load_params(None if path == NOMINAL else path) for path in args.params_file]
     labels = table_labels(args.params_file)
     geometry = TableGeometry.from_params(tables[0])
     if not Path(args.bag).exists():
-        raise VisionError(f"bag not found: {args.bag}")
+        raise RenderError(f"bag not found: {args.bag}")
     recorded = read_recorded_states(args.bag)
     if recorded.detection_t is None:
-        raise VisionError(f"{args.bag} has no {BALL_DETECTION_TOPIC}: the twin is compared with the measured ball")
+        raise RenderError(f"{args.bag} has no {BALL_DETECTION_TOPIC}: the twin is compared with the measured ball")
     t, xy = validate(recorded.detection_t, recorded.detection_position, "table")
     begin = float(t[0]) + args.start
     end = float(t[-1]) if args.duration is None else min(float(t[-1]), begin + args.duration)
     if end <= begin:
-        raise VisionError(f"--start {args.start:g} s is past the recording's last detection ({t[-1] - t[0]:.1f} s)")
+        raise RenderError(f"--start {args.start:g} s is past the recording's last detection ({t[-1] - t[0]:.1f} s)")
     progress("cutting the measurement into free stretches (calibration's tracks and segments)")
     # A game's stretches end at figure contacts, as calibration cuts them: the figures posed from the joint
     # states, or, without them, sudden velocity changes near the rod lines.
@@ -216,7 +216,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     progress = (lambda message: None) if args.quiet else (lambda message: print(f"[twin_video] {message}", file=sys.stderr, flush=True))
     try:
         print(film(args, progress))
-    except (VisionError, DataError, ParamsError, BagError, ValueError) as error:
+    except (RenderError, DataError, ParamsError, BagError, ValueError) as error:
         print(f"twin_video: {str(error).strip().splitlines()[0]}", file=sys.stderr)
         return 2
     except OSError as error:

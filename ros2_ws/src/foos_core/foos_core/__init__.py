@@ -5,7 +5,9 @@
   layered and validated, and `TableGeometry`, the dimensions other packages read from it;
 - `joints`: putting a message's joints into the contract's order by name;
 - `stamps`: ROS stamps to and from seconds;
-- `node_signals` and `nodes.run_node`: how every node of the workspace starts and stops.
+- `node_signals` and `nodes.run_node`: how every node of the workspace starts and stops;
+- `camera_model`, `markers`: a camera's description and the ArUco tags' layout, shared by the simulated
+  camera (foos_sim.camera) and the tracker (foos_vision); `command_line`: how the image commands fail.
 
-Only `node_signals` and `nodes` import rclpy; the rest is plain Python and numpy.
+Only `node_signals` and `nodes` import rclpy; the rest is plain Python, numpy and OpenCV.
 """

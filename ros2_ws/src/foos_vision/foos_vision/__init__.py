@@ -1,9 +1,9 @@
 """foos_vision: camera images (or a video file) in, the ball in the table frame out (`/ball/detection`,
-`/ball/state`); also renders synthetic camera video of the simulated table, with known truth, to test it.
+`/ball/state`). The simulated camera that films the table with known truth, to test it, is foos_sim.camera.
 
 Modules, one concern each. The tracker (ROS-free), along a frame's path:
 
-  markers, geometry      the markers file; tags to the ball-plane homography, the lens
+  geometry               tags (foos_core.markers) to the ball-plane homography, the lens
   field_corners,         a table without tags: the field's corners given in pixels (parsed, checked),
   corner_refine          and fitted to the table's edges in the first frame
   field_view             the field as the camera sees it: tag fit, searched region, rods on their steel,
@@ -19,8 +19,7 @@ Modules, one concern each. The tracker (ROS-free), along a frame's path:
   velocity, backfill     Kalman filter and central differences; the offline backward pass
   joint_sync             live frames paired with rod joint readings
 
-Around it: bag_inputs (what the commands read from bags), image_msg (sensor_msgs/Image to BGR), video_io,
-camera (camera configs and intrinsics), annotate; the commands track_cli, render_cli, calibrate_camera,
-bench, and the nodes tracker_node and video_source; the synthetic camera: scene, render, scenarios, hands,
-boards, and shots (a bag of shots at 3-8 m/s to film).
+Around it: bag_inputs (the joint states track_video reads from a bag), image_msg (sensor_msgs/Image to BGR),
+video_io, annotate; the commands track_cli, calibrate_camera, bench (which films with foos_sim.camera), and
+moved (render_video, now foos_sim's); the nodes tracker_node and video_source.
 """

@@ -15,8 +15,9 @@ from typing import Optional
 
 import numpy as np
 
+from foos_core.markers import BALL_CENTRE_HEIGHT
+
 from .candidate_rules import MAX_SPILL, MIN_PARTIAL_FILL, confident, solid, weak_too_long
-from .markers import BALL_CENTRE_HEIGHT
 from .tracker import BallTracker, Detection
 from .velocity import ConstantVelocityKalman
 

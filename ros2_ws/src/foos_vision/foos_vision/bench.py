@@ -14,7 +14,7 @@ new track), and compares with the truth frame by frame:
 
 The fisheye case (the issue's real clip as near as the renderer comes: 1080p, 25 fps, a yellow ball) is
 tracked with the lens render_video used, and again (`+calib` row) with the intrinsics that
-`calibrate_camera --fisheye` finds on checkerboard views drawn through that lens (foos_vision.boards).
+`calibrate_camera --fisheye` finds on checkerboard views drawn through that lens (foos_sim.camera.boards).
 
 The hands case (`overhead-640-60-orange-hands`) is picked up by a rendered hand and forearm (render_video
 --hands) instead of vanishing: a skin-coloured blob over the field that the tracker is not told about.
@@ -24,7 +24,7 @@ With `--figure-mask both` (the default) every case is tracked twice: as now, and
 or tracker_node's /joint_states would be.
 
 `--shots` runs the shot cases instead (SHOT_CASES): shots at 3-8 m/s toward a goal past rods that hang, lift or lie
-level (foos_vision.shots, filmed by render_video --bag), at 25, 30 and 60 fps with a camera's exposure (half the
+level (foos_sim.camera.shots, filmed by render_video --bag), at 25, 30 and 60 fps with a camera's exposure (half the
 frame interval to all of it, 8-16 sub-frames), so that the ball is a streak several of its widths long. Their `fast`
 columns count the frames where the ball, at least half in view on the table, moves at FAST_SPEED or more (`fast`),
 the share of those with a detection (`fast%`, offline), and the 95th percentile of their errors (`fp95`). A frame in
@@ -51,14 +51,14 @@ import cv2
 import numpy as np
 
 from foos_bag import read_ball_states
+from foos_core.camera_model import load_camera, load_intrinsics
+from foos_core.markers import load_markers
 from foos_core.table_params import REFERENCE_PARAMS_FILE
+from foos_sim.camera.boards import board_views
+from foos_sim.camera.render import read_joints, read_truth
 
 from .backfill import OfflineTracker
-from .boards import board_views
-from .camera import load_camera, load_intrinsics
 from .figure_mask import FigureGeometry, joint_track
-from .markers import load_markers
-from .render import read_joints, read_truth
 from .tracker import BallTracker, TrackerConfig, choose_colour
 from .velocity import central_differences
 from .video_io import VideoReader
@@ -87,7 +87,7 @@ class Case:
     home: str = ""  # the figures' colours (render_video --home-color/--away-color); "": foos_sim's red and blue
     away: str = ""
     exposure: float = 0.5  # the shutter's share of the frame interval (render_video --exposure; with blur > 1)
-    shots: bool = False  # shots (foos_vision.shots) instead of the play scenario
+    shots: bool = False  # shots (foos_sim.camera.shots) instead of the play scenario
     length: float = 1.0  # the case's video is this many times --duration
 
 
@@ -105,7 +105,7 @@ CASES = (
     # ball colour nearest skin. (Last in the list, so the other cases keep their seeds.)
     Case("overhead-640-60-orange-hands", "overhead", 640, 480, 60, "orange", hands=True),
 )
-# Shots past figures, the ball a streak (foos_vision.shots): the issue's 25 fps with a shutter open all of the frame
+# Shots past figures, the ball a streak (foos_sim.camera.shots): the issue's 25 fps with a shutter open all of the frame
 # interval and half of it, 30 fps, and 60 fps; figures of the ball's colour in two; twice as long as the others, since
 # a shot is over in a few frames.
 SHOT_CASES = (
@@ -124,7 +124,7 @@ CALIBRATION_VIEWS = 16  # checkerboard views for the +calib row (9x6 inner corne
 def render_case(case: Case, out: Path, duration: float, seed: int, reuse: bool = False) -> Path:
     video = out / f"{case.name}.mp4"
     duration *= case.length
-    command = [sys.executable, "-m", "foos_vision.render_cli", str(video), "--camera", case.camera,
+    command = [sys.executable, "-m", "foos_sim.camera.render_cli", str(video), "--camera", case.camera,
                "--width", str(case.width), "--height", str(case.height), "--fps", str(case.fps),
                "--ball-color", case.colour, "--blur", str(case.blur), "--lighting", str(case.lighting),
                "--exposure", str(case.exposure), "--duration", str(duration), "--seed", str(seed),
@@ -143,7 +143,7 @@ def render_case(case: Case, out: Path, duration: float, seed: int, reuse: bool =
         return video
     if case.shots:
         shutil.rmtree(out / f"{case.name}.shots", ignore_errors=True)
-        subprocess.run([sys.executable, "-m", "foos_vision.shots", str(out / f"{case.name}.shots"), "--duration",
+        subprocess.run([sys.executable, "-m", "foos_sim.camera.shots", str(out / f"{case.name}.shots"), "--duration",
                         str(duration), "--seed", str(seed), "--params-file", str(REFERENCE_PARAMS_FILE)],
                        check=True, stdout=subprocess.DEVNULL)
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
@@ -255,7 +255,7 @@ def evaluate(video: Path, case: Case, figure_mask: bool = False, intrinsics=None
 
 def hit_during_exposure(bag: str, n: int, fps: float, exposure: float) -> np.ndarray:
     """Per frame: the ball was hit while the shutter was open (its direction turned by HIT_TURN or more between two
-    states going HIT_SPEED or faster), by the shots' own states (a bag of foos_vision.shots, on the video's clock)."""
+    states going HIT_SPEED or faster), by the shots' own states (a bag of foos_sim.camera.shots, on the video's clock)."""
     states = read_ball_states(bag)
     velocity = np.asarray(states.velocity)[:, :2]
     moving = np.hypot(*velocity.T) >= HIT_SPEED

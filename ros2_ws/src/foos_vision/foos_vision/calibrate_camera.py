@@ -8,8 +8,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .camera import Intrinsics
-from .cli_util import run_cli
+from foos_core.camera_model import Intrinsics
+from foos_core.command_line import run_cli
+
 from .errors import VisionError
 from .video_io import VideoReader
 

@@ -19,12 +19,12 @@ import mujoco
 import numpy as np
 
 from foos_core.joints import joint_order, take_joints
+from foos_core.markers import BALL_CENTRE_HEIGHT
 from foos_core.names import JOINT_NAMES, is_figure_geom
 from foos_sim import load_model
 
 from .errors import VisionError
 from .geometry import Lens, PlaneMapping, camera_matrix_for
-from .markers import BALL_CENTRE_HEIGHT
 
 # Pixels added around each footprint. None: the footprint is filled to sub-pixel precision, and a margin
 # eats the visible rim of a ball touching a figure (on the 4 s bench set, 1 px cost 1-2 points of recall

@@ -18,10 +18,11 @@ from typing import Optional
 import cv2
 import numpy as np
 
-from .camera import Intrinsics
+from foos_core.camera_model import Intrinsics
+from foos_core.markers import BALL_CENTRE_HEIGHT, MarkerLayout
+
 from .errors import MarkersError
 from .field_corners import FieldCornersError
-from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 
 MIN_TAGS = 4
 MAX_TAG_RESIDUAL = 0.010  # m; worse than this and the markers file does not describe the table filmed

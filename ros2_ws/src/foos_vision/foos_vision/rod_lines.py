@@ -24,10 +24,10 @@ from typing import Optional
 import cv2
 import numpy as np
 
+from foos_core.markers import BALL_CENTRE_HEIGHT
 from foos_core.table_params import load_params
 
 from .figure_mask import draw_polyline, fill_convex, project_points
-from .markers import BALL_CENTRE_HEIGHT
 
 
 @dataclass(frozen=True)

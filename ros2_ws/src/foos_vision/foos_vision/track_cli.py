@@ -12,12 +12,12 @@ import numpy as np
 from tqdm import tqdm
 
 from foos_bag import BagWriter, write_ball_detections, write_ball_states
+from foos_core.camera_model import load_intrinsics
+from foos_core.command_line import run_cli
 
 from .annotate import Annotator
 from .backfill import OfflineTracker
 from .bag_inputs import read_joint_track
-from .camera import load_intrinsics
-from .cli_util import run_cli
 from .detector import BALL_COLOR_NAMES
 from .errors import MarkersError, VisionError
 from .field_corners import FieldCorners, field_reference

@@ -15,9 +15,11 @@ from typing import Optional
 
 import numpy as np
 
+from foos_core.camera_model import Intrinsics
+from foos_core.markers import BALL_CENTRE_HEIGHT, MarkerLayout
+
 from .ball_colour import ColourLearner, ColourVote
 from .ball_search import NOTHING, BallSearch
-from .camera import Intrinsics
 from .candidate_rules import (
     ACQUIRE_WINDOW,
     MAX_SPILL,
@@ -32,7 +34,6 @@ from .field_corners import FieldReference
 from .field_view import FieldView
 from .figure_mask import FigureGeometry
 from .geometry import Lens, PlaneMapping
-from .markers import BALL_CENTRE_HEIGHT, MarkerLayout
 from .velocity import ConstantVelocityKalman
 
 ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical

@@ -31,7 +31,10 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, JointState
 
+from foos_core.camera_model import load_intrinsics
+from foos_core.command_line import quiet_threads
 from foos_core.joints import joint_order, take_joints
+from foos_core.markers import DEFAULT_MARKERS_FILE
 from foos_core.names import (
     BALL_DETECTION_TOPIC,
     BALL_FRAME,
@@ -43,14 +46,11 @@ from foos_core.names import (
 from foos_core.nodes import run_node
 from foos_core.stamps import stamp_to_seconds
 
-from .camera import load_intrinsics
-from .cli_util import quiet_threads
 from .errors import VisionError
 from .field_corners import field_reference, option_given
 from .figure_mask import FigureGeometry
 from .image_msg import image_to_bgr
 from .joint_sync import JointSync, ReadyFrame
-from .markers import DEFAULT_MARKERS_FILE
 from .tracker import BallTracker, TrackerConfig
 
 # Best effort, deep enough for 0.25 s of 400 Hz encoders while a frame is being tracked.

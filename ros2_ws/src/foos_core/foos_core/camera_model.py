@@ -1,4 +1,4 @@
-"""Camera description shared by the renderer and the tracker: a pinhole with OpenCV distortion, or a
+"""Camera description shared by the simulated camera (foos_sim.camera) and the tracker (foos_vision): a pinhole with OpenCV distortion, or a
 fisheye (OpenCV's cv2.fisheye equidistant model).
 
 A camera YAML gives the pose (position, look_at, up), the vertical field of view, the image size,
@@ -19,9 +19,13 @@ import yaml
 
 from foos_core.yaml_files import read_mapping
 
-from .errors import CameraConfigError
 
-CONFIG_DIR = Path(__file__).resolve().parent / "config"
+class CameraConfigError(ValueError):
+    """A camera configuration or intrinsics file that cannot describe a camera (the message is one line)."""
+
+
+# The shipped cameras (camera_<name>.yaml) live with the table's parameter files.
+CONFIG_DIR = Path(__file__).resolve().parent / "params"
 LENS_MODELS = ("pinhole", "fisheye")
 # The renderer films a pinhole; a fisheye image is remapped from a larger pinhole render of the same focal
 # length (as sharp as the fisheye at the image centre, sharper off it). A wide fisheye's corners look

@@ -7,12 +7,15 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from foos_core.table_geometry import TableGeometry
-from foos_core.yaml_files import read_mapping
+from .table_geometry import TableGeometry
+from .yaml_files import read_mapping
 
-from .errors import MarkersError
+# The simulated camera's tags (foos_sim.camera draws them), which tracker_node knows by default.
+DEFAULT_MARKERS_FILE = Path(__file__).resolve().parent / "params" / "markers.yaml"
 
-DEFAULT_MARKERS_FILE = Path(__file__).resolve().parent / "config" / "markers.yaml"
+
+class MarkersError(ValueError):
+    """A markers file that is missing, malformed, or does not match the tags in the video (one line)."""
 # m, the plane the tracker reports the ball in: the regulation ball's centre (CONTRACT.md, "Markers and video time")
 BALL_CENTRE_HEIGHT = TableGeometry.nominal().ball_centre_height
 

@@ -10,18 +10,18 @@ from typing import Optional
 import numpy as np
 import yaml
 
+from foos_core.camera_model import load_camera
+from foos_core.command_line import run_cli
+from foos_core.markers import DEFAULT_MARKERS_FILE, load_markers
 from foos_core.names import BALL_DETECTION_TOPIC, BALL_STATE_TOPIC, JOINT_STATES_TOPIC
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 from foos_sim.model_builder import build_mjcf
 from foos_sim.simulation import TableSimulation
 
-from .bag_inputs import RecordedStates, read_recorded_states
-from .camera import load_camera
-from .cli_util import run_cli
-from .errors import VisionError
+from .errors import RenderError
 from .hands import HandScript
-from .markers import DEFAULT_MARKERS_FILE, load_markers
+from .recorded import RecordedStates, read_recorded_states
 from .render import (
     MEASURED_COLOUR,
     BallMark,
@@ -151,31 +151,31 @@ def build_parser() -> argparse.ArgumentParser:
 def render_video(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.suffix.lower() != ".mp4":
-        raise VisionError(f"{out}: the output must be an .mp4 file")
+        raise RenderError(f"{out}: the output must be an .mp4 file")
     stem = out.with_suffix("")
     outputs = [out, Path(f"{stem}.truth.csv"), Path(f"{stem}.camera.yaml"), Path(f"{stem}.markers.yaml"),
                Path(f"{stem}.joints.csv")]
     existing = [str(o) for o in outputs if o.exists()]
     if existing and not args.overwrite:
-        raise VisionError(f"{existing[0]} exists (use --overwrite to replace it)")
+        raise RenderError(f"{existing[0]} exists (use --overwrite to replace it)")
     camera = load_camera(args.camera).with_(width=args.width, height=args.height, fps=args.fps, fovy=args.fovy,
                                             distortion=args.distortion)
     if args.fisheye is not None:
         if len(args.fisheye) != 4:
-            raise VisionError(f"--fisheye takes 4 coefficients k1,k2,k3,k4, not {len(args.fisheye)}")
+            raise RenderError(f"--fisheye takes 4 coefficients k1,k2,k3,k4, not {len(args.fisheye)}")
         camera = camera.with_(model="fisheye", distortion=args.fisheye)
     elif args.distortion is not None and camera.fisheye:
-        raise VisionError("--distortion is for a pinhole lens; this camera is a fisheye (use --fisheye k1,k2,k3,k4)")
+        raise RenderError("--distortion is for a pinhole lens; this camera is a fisheye (use --fisheye k1,k2,k3,k4)")
     if camera.width % 2 or camera.height % 2:
-        raise VisionError("width and height must be even (mp4v)")
+        raise RenderError("width and height must be even (mp4v)")
     for name in ("duration", "exposure", "lighting"):
         if not (getattr(args, name) > 0 and math.isfinite(getattr(args, name))):
-            raise VisionError(f"--{name} must be a positive number")
+            raise RenderError(f"--{name} must be a positive number")
     if args.hands and (args.bag or args.hide_every <= 0 or args.no_ball):
-        raise VisionError("--hands picks the ball up: it needs a simulated rollout with --hide-every > 0 (no --bag, "
+        raise RenderError("--hands picks the ball up: it needs a simulated rollout with --hide-every > 0 (no --bag, "
                           "no --no-ball)")
     if args.blur < 1 or args.noise < 0 or args.hide_every < 0 or args.hide_for <= 0:
-        raise VisionError("--blur >= 1, --noise >= 0, --hide-every >= 0 and --hide-for > 0 are required")
+        raise RenderError("--blur >= 1, --noise >= 0, --hide-every >= 0 and --hide-for > 0 are required")
     layout = load_markers(args.markers)
     params = load_params(args.params_file)
     sim = TableSimulation(params=params)

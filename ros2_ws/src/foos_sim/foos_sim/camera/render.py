@@ -17,12 +17,12 @@ import numpy as np
 import yaml
 from tqdm import tqdm
 
+from foos_core.camera_model import CameraConfig
+from foos_core.markers import MarkerLayout
 from foos_core.names import BALL_JOINT, JOINT_NAMES
 
-from .camera import CameraConfig
-from .errors import VisionError
+from .errors import RenderError
 from .hands import AWAY_Z, HAND_BODY, HandPose
-from .markers import MarkerLayout
 from .scene import (
     BALL_COLOURS,
     CAMERA_NAME,
@@ -48,7 +48,7 @@ class RenderOptions:
     visibility: bool = False  # also measure the visible fraction of the ball (a segmentation render per frame)
     home_colour: Optional[tuple[float, float, float]] = None  # the figures' RGB; None: foos_sim's red
     away_colour: Optional[tuple[float, float, float]] = None  # None: foos_sim's blue
-    hands: bool = False  # the scene has a player's hand (foos_vision.hands), posed per frame by render_frames' hand_at
+    hands: bool = False  # the scene has a player's hand (foos_sim.camera.hands), posed per frame by render_frames' hand_at
     # Shadows are most of a frame's cost on a software renderer (Mesa's llvmpipe: 3x); a video to watch can do
     # without them, a video to track is rendered with them.
     shadows: bool = True
@@ -317,7 +317,7 @@ def write_video(out: Path, renderer: SceneRenderer, state_at: StateAt, n_frames:
     out.parent.mkdir(parents=True, exist_ok=True)
     writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), camera.fps, (camera.width, camera.height))
     if not writer.isOpened():
-        raise VisionError(f"{out}: OpenCV cannot write an mp4v video here")
+        raise RenderError(f"{out}: OpenCV cannot write an mp4v video here")
     try:
         for frame, truth in tqdm(render_frames(renderer, state_at, n_frames, hand_at), total=n_frames,
                                  desc=desc, unit="frame", disable=quiet):

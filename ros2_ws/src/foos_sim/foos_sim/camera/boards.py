@@ -15,7 +15,7 @@ import math
 import cv2
 import numpy as np
 
-from .camera import CameraConfig
+from foos_core.camera_model import CameraConfig
 
 BACKGROUND, WHITE, BLACK = 110.0, 235.0, 25.0
 

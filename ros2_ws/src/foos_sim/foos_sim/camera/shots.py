@@ -9,7 +9,7 @@ a goal, when the ball has slowed below 1 m/s, or after SHOT_LONGEST; the ball th
 it scored. The states are the simulator's, sampled at SAMPLE_RATE: render_video --bag interpolates them to its
 sub-frames, and while the ball is out of sight it is put below the floor, where the truth's `visible` is 0.
 
-    python -m foos_vision.shots OUT_BAG --duration 8 --seed 3
+    python -m foos_sim.camera.shots OUT_BAG --duration 8 --seed 3
     render_video shots.mp4 --bag OUT_BAG --fps 25 --blur 12 --exposure 0.8 --ball-color yellow --visibility
 """
 from __future__ import annotations
@@ -22,12 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from foos_bag import BagError, BagWriter, write_ball_states, write_joint_states
+from foos_core.command_line import run_cli
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES, RODS, TEAMS
 from foos_core.table_params import load_params
 from foos_sim.simulation import TableSimulation
 
-from .cli_util import run_cli
-from .errors import VisionError
+from .errors import RenderError
 from .render import HIDDEN_Z
 
 SHOT_SPEED = (3.0, 8.0)  # m/s
@@ -69,9 +69,9 @@ def simulate_shots(duration: float, seed: int = 0, speed: tuple[float, float] = 
     of sight and rolling up to the shooting figure before each."""
     for name, value in (("--duration", duration), ("--hide-for", hide_for), ("--roll-for", roll_for)):
         if not (value > 0 and math.isfinite(value)):
-            raise VisionError(f"{name} must be a positive number")
+            raise RenderError(f"{name} must be a positive number")
     if not (0 < speed[0] <= speed[1] and math.isfinite(speed[1])):
-        raise VisionError("shot speeds must be positive, the lowest first")
+        raise RenderError("shot speeds must be positive, the lowest first")
     sim = TableSimulation(params=load_params(params_file))
     rng = np.random.default_rng(seed)
     layout = sim.params["rods"]["layout"]
@@ -158,7 +158,7 @@ def write_shots_bag(path: str | Path, states: ShotStates) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m foos_vision.shots", description=__doc__,
+    p = argparse.ArgumentParser(prog="python -m foos_sim.camera.shots", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("out", help="the bag to write (a new directory)")
     p.add_argument("--duration", type=float, default=8.0, help="seconds of shots (default 8)")
@@ -179,7 +179,7 @@ def _main(args: argparse.Namespace) -> int:
                                 args.hide_for, args.roll_for)
         write_shots_bag(args.out, states)
     except BagError as error:
-        raise VisionError(str(error)) from None
+        raise RenderError(str(error)) from None
     print(f"shots: {len(states.speeds)} shots at {min(states.speeds):.1f}-{max(states.speeds):.1f} m/s, "
           f"{states.t[-1]:.2f} s -> {args.out}")
     return 0

@@ -12,9 +12,10 @@ import cv2
 import mujoco
 import numpy as np
 
-from .camera import CameraConfig
+from foos_core.camera_model import CameraConfig
+from foos_core.markers import MarkerLayout
+
 from .hands import add_hand
-from .markers import MarkerLayout
 
 CAMERA_NAME = "vision_cam"
 TAG_TEXTURE_PIXELS = 8  # texels per ArUco cell: crisp edges for the tag detector at any render size
@@ -45,7 +46,7 @@ def _png(image: np.ndarray) -> bytes:
 
 def build_scene_xml(base_mjcf: str, layout: MarkerLayout, camera: CameraConfig,
                     hands: bool = False) -> tuple[str, dict[str, bytes]]:
-    """The extended MJCF text and its in-memory assets (tag textures); hands: a player's hand (foos_vision.hands)."""
+    """The extended MJCF text and its in-memory assets (tag textures); hands: a player's hand (foos_sim.camera.hands)."""
     root = ET.fromstring(base_mjcf)
     visual = root.find("visual")
     glob = visual.find("global")

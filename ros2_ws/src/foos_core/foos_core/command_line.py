@@ -1,4 +1,5 @@
-"""What every foos_vision command does alike: one-line errors, non-zero exits, single-threaded OpenCV."""
+"""What the project's image commands (render_video, track_video, ...) do alike: one-line errors, non-zero
+exits, single-threaded OpenCV."""
 from __future__ import annotations
 
 import argparse
@@ -7,8 +8,6 @@ import sys
 from typing import Callable
 
 import cv2
-
-from .errors import VisionError
 
 
 def quiet_threads() -> None:
@@ -28,7 +27,7 @@ def run_cli(parser: argparse.ArgumentParser, body: Callable[[argparse.Namespace]
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         code = 130
-    except (VisionError, ValueError, OSError) as error:
+    except (ValueError, OSError) as error:  # every package's bad-input errors are ValueErrors
         message = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
         print(f"{prog}: error: {message}", file=sys.stderr)
         code = 2
