@@ -238,7 +238,10 @@ def test_bad_parameters_give_a_one_line_error(domain):
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
     for params, message in ((["params_file:=/nonexistent/table.yaml"], "not found"),
                             (["serve:=kickoff"], "serve must be one of"),
-                            (["real_time_factor:=0"], "needs publish_clock")):
+                            (["real_time_factor:=0"], "needs publish_clock"),
+                            (["camera_rate:=-30.0"], "camera_rate must be"),
+                            (["camera_rate:=30.0", "camera:=/nonexistent/camera.yaml"], "camera config not found"),
+                            (["camera_rate:=30.0", "camera_width:=4"], "at least 16")):
         args = ["ros2", "run", "foos_sim", "sim_node", "--ros-args"] + [a for p in params for a in ("-p", p)]
         result = subprocess.run(args, env=env, capture_output=True, text=True, timeout=60)
         assert result.returncode != 0

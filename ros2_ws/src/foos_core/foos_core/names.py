@@ -58,6 +58,7 @@ def figure_team(name: str) -> str | None:
 # Topics (shared/CONTRACT.md) and the frame every position is in.
 TABLE_FRAME = "table"
 BALL_FRAME = "ball"  # child frame of /ball/state
+CAMERA_FRAME = "camera"  # frame of /camera/image_raw (the simulated camera's; a real driver names its own)
 JOINT_STATES_TOPIC = "/joint_states"
 BALL_DETECTION_TOPIC = "/ball/detection"
 BALL_STATE_TOPIC = "/ball/state"
@@ -65,6 +66,8 @@ CAMERA_IMAGE_TOPIC = "/camera/image_raw"
 CAMERA_INFO_TOPIC = "/camera/camera_info"
 CLOCK_TOPIC = "/clock"
 GOAL_TOPIC = "/sim/goal"  # sim_node's own: the team that scored (std_msgs/String); not in the contract
+# sim_node's true ball (nav_msgs/Odometry) while its camera is on and a tracker publishes /ball/state (contract)
+SIM_BALL_STATE_TOPIC = "/sim/ball/state"
 
 
 def command_topic(team: str) -> str:

@@ -1,7 +1,10 @@
 """sim_node: the simulated table on the contract's topics.
 
 Publishes /joint_states, /ball/state, /ball/detection, /sim/goal (std_msgs/String: the team that
-scored) and, with publish_clock, /clock. Takes /home/rods/command and /away/rods/command
+scored) and, with publish_clock, /clock. With camera_rate > 0 the simulated camera is on, as on a real table:
+/camera/image_raw (bgr8) and /camera/camera_info, each image stamped with the simulated time of the state it
+shows, and no /ball/detection or /ball/state (tracker_node makes them from the images); the true ball goes
+out on /sim/ball/state instead. Takes /home/rods/command and /away/rods/command
 (Float64MultiArray, 8 target velocities). Service /sim/reset (std_srvs/Trigger): rods centred, ball
 served again, score kept.
 
@@ -23,6 +26,7 @@ import sys
 import threading
 import time
 
+import numpy as np
 import rclpy
 from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
@@ -31,7 +35,7 @@ from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValu
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
@@ -40,10 +44,14 @@ from foos_core.names import (
     BALL_DETECTION_TOPIC,
     BALL_FRAME,
     BALL_STATE_TOPIC,
+    CAMERA_FRAME,
+    CAMERA_IMAGE_TOPIC,
+    CAMERA_INFO_TOPIC,
     CLOCK_TOPIC,
     GOAL_TOPIC,
     JOINT_NAMES,
     JOINT_STATES_TOPIC,
+    SIM_BALL_STATE_TOPIC,
     TABLE_FRAME,
     TEAMS,
     command_topic,
@@ -51,7 +59,9 @@ from foos_core.names import (
 from foos_core.nodes import run_node
 from foos_core.table_params import ParamsError
 
-from .sim_runner import Detection, Goal, RunnerConfig, SimRunner, StateSample
+from .camera.errors import RenderError
+from .camera.live import LiveCamera, LiveCameraConfig
+from .sim_runner import CameraFrame, Detection, Goal, RunnerConfig, SimRunner, StateSample
 from .simulation import CommandError, TableSimulation
 
 BEHIND_RESYNC_S = 0.5  # s: when pacing falls this far behind the wall clock, stop trying to catch up
@@ -73,6 +83,13 @@ PARAMETERS = (
     ("detection_latency", 0.0, "s from a frame's capture to its detection's publication (stamp = capture)"),
     ("detection_dropout", 0.0, "probability that a frame yields no detection"),
     ("command_timeout", 0.5, "s without a command after which a team's rods are stopped (watchdog)"),
+    ("camera_rate", 0.0, "Hz of /camera/image_raw from the simulated camera; 0 = no camera. On: no /ball/detection "
+     "or /ball/state (tracker_node makes them), the true ball on /sim/ball/state"),
+    ("camera_width", 640, "px, the simulated camera's image width"),
+    ("camera_height", 480, "px, the simulated camera's image height"),
+    ("camera", "overhead", "the simulated camera: a shipped one (overhead, oblique, fisheye) or a camera YAML"),
+    ("camera_ball_color", "white", "the ball's colour in the images: white, yellow, orange, red"),
+    ("camera_noise", 1.5, "sensor noise of the images, std in 8-bit levels"),
 )
 
 
@@ -94,6 +111,7 @@ class SimNode(Node):
             serve=str(param("serve")),
             initial_ball=(float(param("ball_x")), float(param("ball_y")), float(param("ball_vx")), float(param("ball_vy"))),
             seed=int(param("seed")),
+            camera_rate=float(param("camera_rate")),
         )
         self.real_time_factor = float(param("real_time_factor"))
         if not (math.isfinite(self.real_time_factor) and self.real_time_factor >= 0):
@@ -103,6 +121,12 @@ class SimNode(Node):
             raise ValueError("real_time_factor 0 (as fast as possible) needs publish_clock:=true")
 
         self.runner = SimRunner(TableSimulation(params_file), config)
+        self.camera = None
+        if config.camera_rate > 0:
+            self.camera = LiveCamera(LiveCameraConfig(
+                rate=config.camera_rate, width=int(param("camera_width")), height=int(param("camera_height")),
+                camera=str(param("camera")), ball_colour=str(param("camera_ball_color")),
+                noise=float(param("camera_noise")), seed=config.seed), params_file)
         self._last_warning: dict[str, float] = {}
         self._stamp_base_ns = 0 if self.publish_clock else self.get_clock().now().nanoseconds
         self._inbox: queue.SimpleQueue = queue.SimpleQueue()  # from the executor's thread to the simulation's
@@ -119,8 +143,14 @@ class SimNode(Node):
         self._clock = Clock()
 
         self.joint_pub = self.create_publisher(JointState, JOINT_STATES_TOPIC, 10)
-        self.state_pub = self.create_publisher(Odometry, BALL_STATE_TOPIC, 10)
-        self.detection_pub = self.create_publisher(PointStamped, BALL_DETECTION_TOPIC, 10)
+        if self.camera is None:
+            self.state_pub = self.create_publisher(Odometry, BALL_STATE_TOPIC, 10)
+            self.detection_pub = self.create_publisher(PointStamped, BALL_DETECTION_TOPIC, 10)
+        else:  # the tracker publishes the contract's ball topics from the images; the true ball is sim_node's own
+            self.state_pub = self.create_publisher(Odometry, SIM_BALL_STATE_TOPIC, 10)
+            self.image_pub = self.create_publisher(Image, CAMERA_IMAGE_TOPIC, 10)
+            self.info_pub = self.create_publisher(CameraInfo, CAMERA_INFO_TOPIC, 10)
+            self._image, self._info = self._camera_messages()
         self.goal_pub = self.create_publisher(String, GOAL_TOPIC, 10)
         self.clock_pub = self.create_publisher(Clock, CLOCK_TOPIC, 10) if self.publish_clock else None
         for team in TEAMS:
@@ -131,7 +161,11 @@ class SimNode(Node):
         self.get_logger().info(
             f"table from {params_file or 'the nominal parameters'}; {self.runner.sim.physics} physics at "
             f"{1 / self.runner.sim.timestep:.0f} Hz, "
-            f"states {config.publish_rate:g} Hz, detections {config.detection_rate:g} Hz, serve '{config.serve}', "
+            f"states {config.publish_rate:g} Hz, "
+            + (f"detections {config.detection_rate:g} Hz" if self.camera is None else
+               f"camera {config.camera_rate:g} Hz {self.camera.camera.width}x{self.camera.camera.height} "
+               f"({self.camera.camera.name})")
+            + f", serve '{config.serve}', "
             + ("sim time on /clock" if self.publish_clock else "real time")
             + (f" x{self.real_time_factor:g}" if self.real_time_factor > 0 else " as fast as possible")
         )
@@ -186,9 +220,38 @@ class SimNode(Node):
         """Write the ROS time of a simulated time into a message's stamp (faster than building a Time)."""
         stamp.sec, stamp.nanosec = divmod(self._stamp_base_ns + int(round(sim_time * 1e9)), 1_000_000_000)
 
+    def _camera_messages(self) -> tuple[Image, CameraInfo]:
+        """The image and camera-info messages reused for every frame (their stamps and pixels change)."""
+        intrinsics = self.camera.intrinsics
+        image = Image()
+        image.header.frame_id = CAMERA_FRAME
+        image.height, image.width, image.encoding = intrinsics.height, intrinsics.width, "bgr8"
+        image.step = intrinsics.width * 3
+        info = CameraInfo()
+        info.header.frame_id = CAMERA_FRAME
+        info.height, info.width = intrinsics.height, intrinsics.width
+        info.distortion_model = intrinsics.distortion_model
+        info.d = [float(v) for v in intrinsics.d]
+        info.k = [float(v) for v in intrinsics.k.ravel()]
+        info.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+        info.p = [float(v) for v in np.hstack([intrinsics.k, np.zeros((3, 1))]).ravel()]
+        return image, info
+
+    def publish_frame(self, frame: CameraFrame) -> None:
+        """Film the state of the frame's time and publish it, stamped with that time (the capture)."""
+        image, info = self._image, self._info
+        pixels = self.camera.capture(frame.qpos)
+        self.set_stamp(image.header.stamp, frame.capture_time)
+        info.header.stamp.sec, info.header.stamp.nanosec = image.header.stamp.sec, image.header.stamp.nanosec
+        image.data = pixels.tobytes()
+        self.image_pub.publish(image)
+        self.info_pub.publish(info)
+
     def publish(self, event) -> None:
         if isinstance(event, StateSample):
             self.publish_state(event)
+        elif isinstance(event, CameraFrame):
+            self.publish_frame(event)
         elif isinstance(event, Detection):
             msg = self._detection
             self.set_stamp(msg.header.stamp, event.capture_time)
@@ -263,7 +326,7 @@ class SimNode(Node):
 def main(args=None) -> int:
     return run_node(
         "sim_node", SimNode, run=SimNode.run, args=args,
-        errors=(ParamsError, ValueError, TypeError, InvalidParameterTypeException, InvalidParameterValueException),
+        errors=(ParamsError, RenderError, ValueError, TypeError, InvalidParameterTypeException, InvalidParameterValueException),
     )
 
 

@@ -4,6 +4,8 @@ The runner owns a TableSimulation and advances it from one event to the next:
   - a state sample (joints and ball, ground truth) every 1 / publish_rate,
   - a camera capture every 1 / detection_rate, published detection_latency later, with optional
     Gaussian noise and dropouts (a frame whose ball is off the field publishes nothing),
+  - or, with camera_rate > 0, a camera frame every 1 / camera_rate instead: the table's pose (qpos) at
+    that time, which sim_node films (foos_sim.camera.live) and a tracker turns into detections,
   - a goal, followed by a new serve when serving is on.
 It also plays the rod drives' watchdog: a team whose commands stop for command_timeout is stopped.
 Event times are simulated seconds; sim_node maps them to ROS time and publishes.
@@ -28,6 +30,7 @@ class RunnerConfig:
     detection_noise: float = 0.0  # m, standard deviation per axis (x, y)
     detection_latency: float = 0.0  # s, from capture to publication
     detection_dropout: float = 0.0  # probability that a frame yields no detection
+    camera_rate: float = 0.0  # Hz of camera frames to film; > 0 replaces the detections (a tracker makes them)
     command_timeout: float = 0.5  # s without a command before a team's rods are stopped
     serve: str = "random"
     initial_ball: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # x, y, vx, vy for serve "none"
@@ -41,7 +44,7 @@ class RunnerConfig:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
-        for name in ("detection_noise", "detection_latency"):
+        for name in ("detection_noise", "detection_latency", "camera_rate"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be zero or positive, got {value}")
@@ -72,6 +75,12 @@ class Detection:
 
 
 @dataclass(frozen=True)
+class CameraFrame:
+    capture_time: float  # the stamp: the simulated time of the state the frame shows
+    qpos: np.ndarray  # the simulation's qpos then (its own layout), to film
+
+
+@dataclass(frozen=True)
 class Goal:
     time: float
     team: str  # the team that scored
@@ -81,7 +90,7 @@ class Goal:
 @dataclass
 class _Timers:
     next_sample: float = 0.0
-    next_capture: float = 0.0
+    next_capture: float = 0.0  # a detection's capture, or a camera frame with camera_rate > 0
     pending: list = field(default_factory=list)  # detections waiting out their latency, by publish time
 
 
@@ -154,7 +163,7 @@ class SimRunner:
         return min(candidates)
 
     def advance(self) -> list:
-        """Step to the next event and return what happened then: StateSample, Detection, Goal items.
+        """Step to the next event and return what happened then: StateSample, Detection (or CameraFrame), Goal items.
 
         The simulation is asked for the time from one scheduled event to the next, so it follows the
         schedule within half a physics step (2 ms steps at the fast rate: a 120 Hz camera's frames are
@@ -171,8 +180,12 @@ class SimRunner:
         self._watchdog()
         timers = self._timers
         if timers.next_capture <= due:
-            self._capture(now)
-            timers.next_capture += 1.0 / self.config.detection_rate
+            if self.config.camera_rate > 0:
+                events.append(CameraFrame(now, self.sim.data.qpos.copy()))
+                timers.next_capture += 1.0 / self.config.camera_rate
+            else:
+                self._capture(now)
+                timers.next_capture += 1.0 / self.config.detection_rate
         while timers.pending and timers.pending[0].publish_time <= due:
             events.append(timers.pending.pop(0))
         if timers.next_sample <= due:
