@@ -46,7 +46,7 @@ from foos_core.names import (
 from foos_core.nodes import run_node
 from foos_core.stamps import stamp_to_seconds
 
-from .errors import VisionError
+from .errors import CameraConfigError, MarkersError, VisionError
 from .field_corners import field_reference, option_given
 from .figure_mask import FigureGeometry
 from .image_msg import image_to_bgr
@@ -118,7 +118,9 @@ class TrackerNode(Node):
         try:
             frame = image_to_bgr(msg)
             detection = self.tracker.process(frame, t, joints)
-        except ValueError as error:
+        except (VisionError, MarkersError, CameraConfigError):
+            raise  # the table's description does not fit the images: the node ends with one line
+        except ValueError as error:  # this frame only (an encoding the node cannot read)
             self.get_logger().warning(f"frame at {t:.3f} s skipped: {error}")
             return
         if self.tracker.mapping is None and not self.warned_tags and self.tracker.stats.frames >= 30:
