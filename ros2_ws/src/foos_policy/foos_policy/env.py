@@ -8,6 +8,10 @@ Control runs at `control_rate` Hz (50 by default) over the table's physics (foos
 unless the parameter file names the reference): one control step is one TableSimulation.advance(1 /
 control_rate). The episode ends at the control step in which the simulation reports a goal, and every
 rod-ball touch is counted: the simulation counts the touches of each team's figures as they begin.
+
+Both teams see the ball as a real table's camera loop delivers it (foos_policy.camera_view: 40 ms late,
+1.5 mm and 0.05 m/s of noise), and their own rods' joints at once; `view` / `opponent_view` "instant" give
+a team the true state at once instead. Goals, rewards and the episode's end are judged on the true state.
 """
 from __future__ import annotations
 
@@ -20,6 +24,7 @@ import numpy as np
 from foos_core.names import COMMAND_SIZE
 from foos_sim.simulation import TableSimulation
 
+from .camera_view import CAMERA_LATENCY, POSITION_NOISE, VELOCITY_NOISE, VIEWS, CameraView
 from .observation import ACTION_LIMIT, OBS_SIZE, action_to_command, observe
 from .tasks import make_opponent, make_reset, make_reward
 
@@ -36,6 +41,10 @@ class EnvConfig:
     stagnant_steps: int = 50            # control steps (1 s at 50 Hz) of stagnation that end an episode
     params_file: Optional[str] = None
     reward: str = "paper"               # paper | skill (foos_policy.tasks.REWARDS)
+    view: str = "camera"                # camera | instant: how the home policy sees the ball (camera_view)
+    opponent_view: str = "camera"       # camera | instant: the same for the away team
+    camera_latency: float = CAMERA_LATENCY    # s
+    camera_noise: float = POSITION_NOISE      # m per axis; the velocity's noise is VELOCITY_NOISE while this is > 0
 
 
 @dataclass
@@ -92,6 +101,11 @@ class FoosballEnv(gym.Env):
             raise ValueError(f"the opponent's delay must be at least 0 s, got {cfg.opponent_delay}")
         self.opponent_delay_steps = int(round(cfg.opponent_delay / self.dt))
         self.opponent = make_opponent(cfg.opponent, self.sim, cfg.opponent_policy, self.opponent_delay_steps)
+        for name in ("view", "opponent_view"):
+            if getattr(cfg, name) not in VIEWS:
+                raise ValueError(f"{name} must be one of {', '.join(VIEWS)}, got '{getattr(cfg, name)}'")
+        self.camera = CameraView(cfg.camera_latency, cfg.camera_noise, VELOCITY_NOISE if cfg.camera_noise > 0 else 0.0)
+        self._views = {"home": cfg.view, "away": cfg.opponent_view}
 
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
         self.action_space = gym.spaces.Box(-ACTION_LIMIT, ACTION_LIMIT, (COMMAND_SIZE,), np.float32)
@@ -108,6 +122,8 @@ class FoosballEnv(gym.Env):
         initial_joints = getattr(self.opponent, "initial_joint_positions", None)
         self.sim.reset(ball_position=position, ball_velocity=velocity,
                        joint_positions=initial_joints() if initial_joints else None)
+        self.camera.clear()
+        self._film()
         self.stats = EpisodeStats(final_y=float(position[1]), task=f"{self.config.reset}/{self.config.opponent}")
         self._stagnant_count = 0
         return self._observe("home"), {}
@@ -124,6 +140,7 @@ class FoosballEnv(gym.Env):
         y_before = float(self.sim.ball_position()[1])
         touched_before = self.stats.touches_home > 0
         goal = self._advance()
+        self._film()
         y_after = float(self.sim.ball_position()[1])
         unstable = not self.sim.state_is_finite()
         first_touch = not touched_before and self.stats.touches_home > 0
@@ -157,9 +174,18 @@ class FoosballEnv(gym.Env):
             self.config.opponent = opponent
 
     # --- internals ------------------------------------------------------------------------------
+    def _film(self) -> None:
+        """The camera's frame of the ball now (the loop delivers it `camera_latency` later)."""
+        sim = self.sim
+        self.camera.record(sim.time, sim.ball_position(), sim.ball_velocity(), self.np_random)
+
     def _observe(self, team: str) -> np.ndarray:
         sim = self.sim
-        return observe(team, sim.ball_position(), sim.ball_velocity(), sim.joint_positions(), sim.joint_velocities())
+        if self._views[team] == "camera":
+            position, velocity = self.camera.ball()
+        else:
+            position, velocity = sim.ball_position(), sim.ball_velocity()
+        return observe(team, position, velocity, sim.joint_positions(), sim.joint_velocities())
 
     def _advance(self) -> Optional[str]:
         """One control step of physics; the team that scored (the episode ends there), or None. The touches

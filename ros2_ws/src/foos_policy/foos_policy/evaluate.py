@@ -55,7 +55,8 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def evaluate(args) -> dict:
-    env = make_env(args.reset, args.opponent, args.opponent_policy, params_file=args.params_file, opponent_delay=args.opponent_delay)
+    env = make_env(args.reset, args.opponent, args.opponent_policy, params_file=args.params_file, opponent_delay=args.opponent_delay,
+                   view=args.view, opponent_view=args.opponent_view)
     policy = make_policy(args.policy, env.sim.params, env.sim.command_limits, seed=args.seed)
     start = time.time()
     results = run_episodes(env, policy.predict, episode_seeds(args.seed, args.episodes), progress=not args.no_progress,
@@ -63,7 +64,8 @@ def evaluate(args) -> dict:
     wall = time.time() - start
     return summarize(results, extra={
         "policy": args.policy, "reset": args.reset, "opponent": args.opponent, "seed": args.seed,
-        "opponent_delay_s": env.opponent_delay_steps * env.dt,
+        "opponent_delay_s": env.opponent_delay_steps * env.dt, "view": args.view, "opponent_view": args.opponent_view,
+        "camera_latency_s": env.config.camera_latency, "camera_noise_m": env.config.camera_noise,
         "params_file": args.params_file, "physics": env.sim.physics,
         "control_rate_hz": 1.0 / env.dt, "max_steps": env.config.max_steps, "wall_s": round(wall, 1),
         "command": "evaluate " + " ".join(sys.argv[1:]),

@@ -70,13 +70,13 @@ def kick_table(offsets: Sequence[float], rod: str = "attack", ahead: float = SHO
 
 
 def shot_outcomes(speed: float, delay: float, shots: int, seed: int, carry_speed: float = 0.0,
-                  params_file: Optional[str] = None, progress: bool = False) -> dict:
+                  params_file: Optional[str] = None, progress: bool = False, opponent_view: str = "camera") -> dict:
     """Aimed shots from the home attack line against the settled scripted goalie and defence (module doc).
 
     With `carry_speed` > 0 the ball is first carried along the line, as a figure pinning it would move it:
     from one side toward the other at that speed for CARRY_TIME (or until it has crossed CARRY_SPAN), the
     away rods following it, and shot from where the carry ends."""
-    env = make_env(reset="hardened", opponent="scripted", params_file=params_file, opponent_delay=delay)
+    env = make_env(reset="hardened", opponent="scripted", params_file=params_file, opponent_delay=delay, opponent_view=opponent_view)
     sim = env.sim
     layout = sim.params["rods"]["layout"]
     start_y = float(layout["home_attack"]["y"]) + SHOT_LINE_AHEAD
@@ -114,6 +114,7 @@ def shot_outcomes(speed: float, delay: float, shots: int, seed: int, carry_speed
                 break
         goals += env.stats.goal == "home"
         own_goals += env.stats.goal == "away"
-    return {"speed": speed, "delay_s": env.opponent_delay_steps * env.dt, "carry_speed": carry_speed, "shots": shots,
+    return {"speed": speed, "delay_s": env.opponent_delay_steps * env.dt, "opponent_view": opponent_view,
+            "carry_speed": carry_speed, "shots": shots,
             "goal_rate": goals / shots, "goal_rate_ci95": list(wilson_interval(goals, shots)),
             "own_goal_rate": own_goals / shots, "own_goal_rate_ci95": list(wilson_interval(own_goals, shots))}

@@ -175,7 +175,8 @@ def train(args) -> dict:
 
     def env_factory(rank: int):
         def make():
-            env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward, opponent_delay=args.opponent_delay)
+            env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward, opponent_delay=args.opponent_delay,
+                           view=args.view, opponent_view=args.opponent_view)
             env.reset(seed=args.seed * 1000 + rank)
             return env
         return make
@@ -207,6 +208,7 @@ def train(args) -> dict:
         "steps_requested": args.steps, "time_limit_min": args.time_limit, "steps_done": int(model.num_timesteps),
         "interrupted": interrupted, "wall_s": round(wall, 1), "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 1),
         "learner": args.learner, "reward": args.reward, "curriculum": args.curriculum,
+        "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
         "command": "train " + " ".join(sys.argv[1:]) if sys.argv else "",
