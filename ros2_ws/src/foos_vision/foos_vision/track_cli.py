@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from tqdm import tqdm
 from foos_bag import BagWriter, write_ball_detections, write_ball_states
 from foos_core.camera_model import load_intrinsics
 from foos_core.command_line import run_cli
+from foos_core.field_size import parse_field_size, write_field_sized
 
 from .annotate import Annotator
 from .backfill import OfflineTracker
@@ -39,10 +41,11 @@ place of --markers, the pixels where the playing surface meets the walls at the 
 (-x,-y), (+x,-y), (+x,+y), (-x,+y) (+y toward the away goal, the home team attacks +y; seen from above the
 four go round counter-clockwise). A corner hidden behind a wall is given where it would be seen; a pixel
 or two off is fine: on the first frame the corners are fitted to the table's edges seen (the felt against
-the walls, the walls' tops), and the run says so. The field's size comes from --params-file (a
-non-regulation table: a parameter file with `base: regulation_table` and `field: {width: ..., length:
-...}`); the ball plane is reached by the parallax the camera implies (--intrinsics when given, else the
-focal length the corners reveal).
+the walls, the walls' tops), and the run says so. A table that is not the regulation one needs only
+--field-size LENGTH,WIDTH (m: LENGTH along y between the end walls, WIDTH along x between the side walls):
+its rods and figures keep the regulation layout's proportions (foos_core.field_size); --params-file
+describes a table in full instead (or is the table --field-size resizes). The ball plane is reached by
+the parallax the camera implies (--intrinsics when given, else the focal length the corners reveal).
 
 Offline, each new track is also followed backward in time from its first detections, over the
 frames just before it, to recover a ball that came out half hidden from under a rod or a foot
@@ -56,7 +59,7 @@ of its colour. Frames more than 0.1 s from any reading are tracked without the m
 
 Examples:
   track_video game.mp4 --markers table_markers.yaml --out game_bag
-  track_video game.mp4 --field-corners 412,880,1510,875,1398,170,520,168 --params-file my_table.yaml --out bag
+  track_video game.mp4 --field-corners 412,880,1510,875,1398,170,520,168 --field-size 1.12,0.64 --out bag
   track_video game.mp4 --markers m.yaml --out bag --joint-states game_rods_bag --start-time 12.5
   track_video game.mp4 --markers m.yaml --out bag --ball-color yellow --intrinsics cam.yaml \\
       --csv-pixels px.csv --csv-metres m.csv --annotate seen.mp4
@@ -89,6 +92,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="bag with /joint_states (the 16 rod joints): mask out the figures (see above)")
     p.add_argument("--params-file", help="foos_sim table parameter file: the field's size, the figures for the mask, "
                                          "where the rods are (default: the regulation table)")
+    p.add_argument("--field-size", metavar="LENGTH,WIDTH",
+                   help="a table that is not the regulation one: its field in m, LENGTH along y between the end walls, "
+                        "WIDTH along x between the side walls (e.g. 1.12,0.64); the rods keep the regulation layout's "
+                        "proportions")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -218,8 +225,18 @@ def _fit_summary(tracker: BallTracker, corners: FieldCorners | None) -> str:
             f"at most)")
 
 
+def track_video_of_size(args: argparse.Namespace) -> int:
+    """track_video, with --field-size's table written to a parameter file that lives for the run."""
+    if args.field_size is None:
+        return track_video(args)
+    length, width = parse_field_size(args.field_size)
+    with tempfile.TemporaryDirectory(prefix="track_video_") as folder:
+        args.params_file = str(write_field_sized(args.params_file, length, width, Path(folder) / "table.yaml"))
+        return track_video(args)
+
+
 def main(argv=None) -> None:
-    run_cli(build_parser(), track_video, argv)
+    run_cli(build_parser(), track_video_of_size, argv)
 
 
 if __name__ == "__main__":
