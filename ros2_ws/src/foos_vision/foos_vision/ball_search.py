@@ -40,6 +40,7 @@ from .candidate_rules import (
 )
 from .detector import FELT_AB_TOL, BallDetector, Candidate, ColourModel
 from .field_view import FieldView
+from .motion_ball import MotionMap
 from .streaks import Streak, find_streaks
 from .velocity import KalmanState
 
@@ -63,6 +64,8 @@ STREAK_FROM = 2.0  # radii: see BallSearch.streak_from
 # A short streak (no track running) is looked for around the SHORT_STREAK_LOOKS best partial balls of the field search,
 # in a window SHORT_STREAK_WINDOW radii from their centres (a smear of 2 radii plus a disc, with room for a rod across).
 SHORT_STREAK_LOOKS, SHORT_STREAK_WINDOW = 2, 4.0
+# A moved blob with no track running: about one disc of shares, roundish (a streak is for the track to follow).
+MOVED_SHARES, MOVED_ROUNDNESS = (0.6, 1.6), 0.5
 BALL_COLOUR_SAMPLES = 40  # whole balls in plain view whose mean colour is the streak search's ball colour
 
 
@@ -83,6 +86,7 @@ class BallSearch:
         # fast), and a blob next frame is judged as after a frame without the ball (near: a figure of its colour
         # where a shot went into the goal does not carry the track).
         self.after_streak = False
+        self.motion = MotionMap()  # the tracker shows it every frame (MotionMap.look)
 
     @property
     def colour(self) -> ColourModel:
@@ -198,6 +202,30 @@ class BallSearch:
         axis = c.streak.axis  # distance of the last detection from the streak's line (a 2-D cross product)
         off = abs(float(axis[0] * (start[1] - c.v) - axis[1] * (start[0] - c.u)))
         return off <= STREAK_FROM * view.radius_at_pixel(c.u, c.v) + 3.0 * sigma
+
+    def moved_near(self, bgr: np.ndarray, state: KalmanState, coast: float = 0.0):
+        """The ball's colour where the table changed (motion_ball), within the gate of `near` around the prediction:
+        a ball the colour box misses (streaked, dimmed, half under a foot)."""
+        view = self.view
+        ppm = view.mapping.pixels_per_metre(state.x[:2])
+        radius = view.table.ball_radius * ppm
+        sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
+        gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
+        for blob in self.motion.blobs(self._ball_colour(), view.radius_at_pixel, view.table_to_pixel(state.x[:2]), gate):
+            c = blob.candidate()
+            if not self.rules.covers_rod(bgr, c, self.colour):
+                return c, None, None
+        return NOTHING
+
+    def moved_on_field(self, bgr: np.ndarray):
+        """The most ball-like blob of the ball's colour where the table changed, anywhere on the field: a first
+        sighting only (see BallTracker._acquire), never a whole ball."""
+        for blob in self.motion.blobs(self._ball_colour(), self.view.radius_at_pixel):
+            c = blob.candidate()
+            if (MOVED_SHARES[0] <= blob.shares <= MOVED_SHARES[1] and blob.roundness >= MOVED_ROUNDNESS
+                    and not self.rules.covers_rod(bgr, c, self.colour) and not self.fixtures.is_fixture(c, count=False)):
+                return c, None, None
+        return NOTHING
 
     def measurement_covariance(self, c: Candidate, std: float) -> Optional[np.ndarray]:
         """The covariance (m^2, table frame) of a streak's centre, elongated along it; None for a ball seen as a disc

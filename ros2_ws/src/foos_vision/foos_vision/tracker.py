@@ -175,6 +175,7 @@ class BallTracker:
         if self.view.mapping is None:
             return None
         self.stats.frames_with_mapping += 1
+        self.search.motion.look(bgr, self.view.roi, self.view.region)
         self.view.set_figures(joints)
         self.stats.masked_frames += int(self.view.figures_masked)
         if not self._colour_settled:
@@ -218,6 +219,10 @@ class BallTracker:
                 return blurred
             if found[0] is not None:
                 return self._follow_partial(bgr, t, found)
+            # Nothing of the ball's colour box, nor a streak: the ball's colour where the table changed (motion_ball).
+            moved = self.search.moved_near(bgr, predicted, t - self.kalman.state.t)
+            if moved[0] is not None:
+                return moved
         return self._acquire(bgr, t)
 
     def _follow_partial(self, bgr: np.ndarray, t: float, found):
@@ -266,6 +271,9 @@ class BallTracker:
             # A ball rolling or flying a little too fast for its colour box to take it whole: a short streak, which
             # like a ball-like blob needs a second sighting (either) to start a track.
             found = self.search.short_streak(bgr)
+            if found[0] is None:
+                # Or a ball of its colour where the table changed, which like a short streak needs a second sighting.
+                found = self.search.moved_on_field(bgr)
             if found[0] is None:
                 self._pending = None
                 return run

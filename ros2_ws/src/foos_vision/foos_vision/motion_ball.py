@@ -1,0 +1,142 @@
+"""The ball where it moved: a background model of the static table, and the ball's learned colour against it.
+
+A camera over a table sees the same felt, walls and lines frame after frame; what changes is the ball, the figures and
+the hands. The background is a running mean of the field's box at half resolution (MotionMap.look takes in the frame
+before once it was searched, so a frame is compared with the frames before it). Each pixel of a frame is, where the ball passed
+during the exposure, a share alpha of the ball's colour B and the rest background F (P = alpha B + (1 - alpha) F, as
+for a streak, streaks.py), whatever the ball did: rolled, streaked, half under a foot. So the change P - F points
+along B - F, with a length alpha |B - F|. B is the ball's colour learned online from the whole balls the tracker saw
+(BallSearch.ball_colour): a colour preset only starts it. A figure or a hand that moved changes the pixels along its
+own colour's direction, a flicker of the lights along F's: neither is a share of the ball. The pixels whose change is
+a share of the ball (ALPHA_RANGE, off that direction by little) make blobs; a blob is the ball when its shares add up
+to about a disc of the ball's size there (a streak's shares add up to one disc too) and it is as wide as one across.
+
+This finds a ball that the colour box misses: streaked, dimmed in a goal mouth, half under a foot. It is what the
+tracker asks when nothing else is found, and it never starts a track on one sighting.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Optional
+
+import cv2
+import numpy as np
+
+from .detector import Candidate
+
+SCALE = 0.5  # the background is kept at half resolution: a ball of 8 px radius keeps 4
+LEARN_RATE = 0.05  # per frame: a ball that rests 20 frames becomes table, a passing one does not
+ALPHA_RANGE = (0.25, 1.4)  # a pixel's share of the ball: below, noise and compression; above, not the ball's colour
+OFF_LINE = 12.0  # BGR levels off the background-to-ball line still a share, plus OFF_SLOPE of the share's length (shade)
+SHARES_RANGE = (0.3, 2.5)  # a blob's shares over a disc: part of a ball under a foot to a ball with its shadow
+WIDTH_RANGE = (0.5, 1.6)  # the blob's spread across its long axis over a disc's (r / 2)
+MIN_CONTRAST = 25.0  # BGR levels between the ball's colour and the background: less, and no share can be told
+OFF_SLOPE = 0.4  # the ball's own shading and its blend with what is beside it turn its change off the line
+
+
+@dataclass
+class MotionBlob:
+    u: float
+    v: float
+    shares: float  # the blob's shares over a disc of the ball's radius there
+    width: float  # spread across over a disc's
+    roundness: float
+
+    def candidate(self) -> Candidate:
+        """As the tracker's candidate: its shares for the area, never a whole ball (fill 0: see solid)."""
+        return Candidate(self.u, self.v, self.shares, self.roundness, min(self.shares, 1.0) * self.roundness,
+                         spill=0.0, fill=0.0)
+
+
+class MotionMap:
+    def __init__(self):
+        self._background: Optional[np.ndarray] = None
+        self._roi: Optional[tuple[int, int, int, int]] = None
+        self._frame: Optional[np.ndarray] = None
+        self._region: Optional[np.ndarray] = None  # where the ball may be, at the background's resolution
+
+    def look(self, bgr: np.ndarray, roi: tuple[int, int, int, int], region: Optional[np.ndarray] = None) -> None:
+        """The frame before becomes part of the background (it has been searched), and this is the frame now: the
+        field box at the background's resolution (a new box starts the background again); region: full-frame uint8,
+        non-zero where the ball may be (the field)."""
+        self._remember()
+        x0, y0, x1, y1 = roi
+        if x1 - x0 < 4 or y1 - y0 < 4:
+            self._frame = None
+            return
+        self._frame = cv2.resize(bgr[y0:y1, x0:x1], None, fx=SCALE, fy=SCALE,
+                                 interpolation=cv2.INTER_AREA).astype(np.float32)
+        if roi != self._roi or self._background is None or self._background.shape != self._frame.shape:
+            self._roi, self._background = roi, None
+            self._region = None if region is None else cv2.resize(
+                region[y0:y1, x0:x1], (self._frame.shape[1], self._frame.shape[0]), interpolation=cv2.INTER_NEAREST)
+
+    def _remember(self) -> None:
+        if self._frame is None:
+            return
+        if self._background is None:
+            self._background = self._frame.copy()
+        else:
+            cv2.accumulateWeighted(self._frame, self._background, LEARN_RATE)
+
+    def blobs(self, ball_bgr: np.ndarray, radius_at: Callable[[float, float], float],
+              centre: Optional[np.ndarray] = None,
+              reach: float = math.inf) -> list[MotionBlob]:
+        """Blobs of the ball's shares in this frame, within reach px of centre (full-frame pixels) when given, best
+        first."""
+        if self._frame is None or self._background is None:
+            return []
+        x0, y0, x1, y1 = self._roi
+        h, w = self._frame.shape[:2]
+        bx0, by0, bx1, by1 = 0, 0, w, h
+        if centre is not None and math.isfinite(reach):
+            bx0, by0 = max(0, int((centre[0] - x0 - reach) * SCALE)), max(0, int((centre[1] - y0 - reach) * SCALE))
+            bx1, by1 = min(w, int((centre[0] - x0 + reach) * SCALE) + 2), min(h, int((centre[1] - y0 + reach) * SCALE) + 2)
+            if bx1 - bx0 < 3 or by1 - by0 < 3:
+                return []
+        frame = self._frame[by0:by1, bx0:bx1]
+        background = self._background[by0:by1, bx0:bx1]
+        change = frame - background
+        towards = ball_bgr.astype(np.float32)[None, None, :] - background
+        length2 = np.einsum("ijk,ijk->ij", towards, towards)
+        alpha = np.einsum("ijk,ijk->ij", change, towards) / np.maximum(length2, 1e-3)
+        off = np.linalg.norm(change - alpha[..., None] * towards, axis=2)
+        share = ((alpha >= ALPHA_RANGE[0]) & (alpha <= ALPHA_RANGE[1]) & (length2 >= MIN_CONTRAST ** 2)
+                 & (off <= OFF_LINE + OFF_SLOPE * alpha * np.sqrt(length2)))
+        if self._region is not None:
+            share &= self._region[by0:by1, bx0:bx1] > 0
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(share.astype(np.uint8), connectivity=8)
+        found = []
+        for i in range(1, n):
+            if stats[i, cv2.CC_STAT_AREA] < 3:
+                continue
+            sx, sy, sw, sh = (int(stats[i, c]) for c in (cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP, cv2.CC_STAT_WIDTH,
+                                                          cv2.CC_STAT_HEIGHT))
+            ys, xs = np.nonzero(labels[sy:sy + sh, sx:sx + sw] == i)
+            weights = np.clip(alpha[ys + sy, xs + sx], 0.0, 1.0)
+            total = float(weights.sum())
+            cu = float((xs + sx) @ weights) / total
+            cv_ = float((ys + sy) @ weights) / total
+            u, v = x0 + (bx0 + cu + 0.5) / SCALE - 0.5, y0 + (by0 + cv_ + 0.5) / SCALE - 0.5
+            if centre is not None and math.hypot(u - centre[0], v - centre[1]) > reach:
+                continue
+            r = radius_at(u, v) * SCALE
+            shares = total / (math.pi * r * r)
+            if not SHARES_RANGE[0] <= shares <= SHARES_RANGE[1]:
+                continue
+            if len(xs) >= 3:
+                d = np.stack([xs + sx - cu, ys + sy - cv_])
+                cov = (d * weights) @ d.T / total
+                ev = np.linalg.eigvalsh(cov)
+            else:
+                ev = np.array([r * r / 4, r * r / 4])
+            width = math.sqrt(max(ev[0], 1e-6)) / (r / 2)
+            if not WIDTH_RANGE[0] <= width <= WIDTH_RANGE[1]:
+                continue
+            found.append(MotionBlob(u, v, shares, width, float(math.sqrt(max(ev[0], 1e-6) / max(ev[1], 1e-6)))))
+        if centre is not None:
+            found.sort(key=lambda b: math.hypot(b.u - centre[0], b.v - centre[1]))
+        else:
+            found.sort(key=lambda b: -min(b.shares, 1.0 / b.shares) * b.roundness)
+        return found
