@@ -66,6 +66,9 @@ STREAK_FROM = 2.0  # radii: see BallSearch.streak_from
 SHORT_STREAK_LOOKS, SHORT_STREAK_WINDOW = 2, 4.0
 # A moved blob with no track running: about one disc of shares, roundish (a streak is for the track to follow).
 MOVED_SHARES, MOVED_ROUNDNESS = (0.6, 1.6), 0.5
+# Near a prediction, a moved blob of fewer shares than this (but at least motion_ball.SHARES_RANGE's 0.2: a ball half
+# under a foot) counts only within PARTIAL_NEAR radii (plus 2 sigma) of it.
+MOVED_NEAR_SHARES = 0.3
 BALL_COLOUR_SAMPLES = 40  # whole balls in plain view whose mean colour is the streak search's ball colour
 
 
@@ -211,7 +214,13 @@ class BallSearch:
         radius = view.table.ball_radius * ppm
         sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
         gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
-        for blob in self.motion.blobs(self._ball_colour(), view.radius_at_pixel, view.table_to_pixel(state.x[:2]), gate):
+        centre = view.table_to_pixel(state.x[:2])
+        for blob in self.motion.blobs(self._ball_colour(), view.radius_at_pixel, centre, gate, self._felt_colour(bgr)):
+            # Part of a ball (under a foot, a figure's edge across it) only where one is expected, as for the colour
+            # box's partial blobs (PARTIAL_NEAR).
+            partial_reach = PARTIAL_NEAR * radius + 2.0 * sigma
+            if blob.shares < MOVED_NEAR_SHARES and math.hypot(blob.u - centre[0], blob.v - centre[1]) > partial_reach:
+                continue
             c = blob.candidate()
             if not self.rules.covers_rod(bgr, c, self.colour):
                 return c, None, None
@@ -220,7 +229,7 @@ class BallSearch:
     def moved_on_field(self, bgr: np.ndarray):
         """The most ball-like blob of the ball's colour where the table changed, anywhere on the field: a first
         sighting only (see BallTracker._acquire), never a whole ball."""
-        for blob in self.motion.blobs(self._ball_colour(), self.view.radius_at_pixel):
+        for blob in self.motion.blobs(self._ball_colour(), self.view.radius_at_pixel, felt_bgr=self._felt_colour(bgr)):
             c = blob.candidate()
             if (MOVED_SHARES[0] <= blob.shares <= MOVED_SHARES[1] and blob.roundness >= MOVED_ROUNDNESS
                     and not self.rules.covers_rod(bgr, c, self.colour) and not self.fixtures.is_fixture(c, count=False)):

@@ -27,10 +27,13 @@ from .detector import Candidate
 
 SCALE = 0.5  # the background is kept at half resolution: a ball of 8 px radius keeps 4
 LEARN_RATE = 0.05  # per frame: a ball that rests 20 frames becomes table, a passing one does not
-ALPHA_RANGE = (0.25, 1.4)  # a pixel's share of the ball: below, noise and compression; above, not the ball's colour
+ALPHA_RANGE = (0.25, 1.4)  # a pixel's share of the ball that seeds a blob: below, noise and compression; above, not
+# the ball's colour
+FAINT_ALPHA = 0.1  # around a blob's seeds, fainter shares count too (a streak's ends, a blurred rim)
 OFF_LINE = 12.0  # BGR levels off the background-to-ball line still a share, plus OFF_SLOPE of the share's length (shade)
-SHARES_RANGE = (0.3, 2.5)  # a blob's shares over a disc: part of a ball under a foot to a ball with its shadow
+SHARES_RANGE = (0.2, 2.5)  # a blob's shares over a disc: a fifth of a ball (under a foot) to a ball with its shadow
 WIDTH_RANGE = (0.5, 1.6)  # the blob's spread across its long axis over a disc's (r / 2)
+BOX_MARGIN = 32  # px around the field's box kept in the background
 MIN_CONTRAST = 25.0  # BGR levels between the ball's colour and the background: less, and no share can be told
 OFF_SLOPE = 0.4  # the ball's own shading and its blend with what is beside it turn its change off the line
 
@@ -55,22 +58,29 @@ class MotionMap:
         self._roi: Optional[tuple[int, int, int, int]] = None
         self._frame: Optional[np.ndarray] = None
         self._region: Optional[np.ndarray] = None  # where the ball may be, at the background's resolution
+        self._region_of: Optional[np.ndarray] = None  # the full-frame region it was made of
 
     def look(self, bgr: np.ndarray, roi: tuple[int, int, int, int], region: Optional[np.ndarray] = None) -> None:
         """The frame before becomes part of the background (it has been searched), and this is the frame now: the
         field box at the background's resolution (a new box starts the background again); region: full-frame uint8,
         non-zero where the ball may be (the field)."""
         self._remember()
-        x0, y0, x1, y1 = roi
+        h, w = bgr.shape[:2]
+        if self._roi is None or not _inside(roi, self._roi) or self._roi[2] > w or self._roi[3] > h:
+            # The tags' refits move the field's box by a pixel or two: a margin keeps the background through them.
+            x0, y0, x1, y1 = roi
+            self._roi = (max(0, x0 - BOX_MARGIN), max(0, y0 - BOX_MARGIN), min(w, x1 + BOX_MARGIN), min(h, y1 + BOX_MARGIN))
+            self._background, self._region = None, None
+        x0, y0, x1, y1 = self._roi
         if x1 - x0 < 4 or y1 - y0 < 4:
             self._frame = None
             return
         self._frame = cv2.resize(bgr[y0:y1, x0:x1], None, fx=SCALE, fy=SCALE,
                                  interpolation=cv2.INTER_AREA).astype(np.float32)
-        if roi != self._roi or self._background is None or self._background.shape != self._frame.shape:
-            self._roi, self._background = roi, None
-            self._region = None if region is None else cv2.resize(
-                region[y0:y1, x0:x1], (self._frame.shape[1], self._frame.shape[0]), interpolation=cv2.INTER_NEAREST)
+        if region is not None and (self._region is None or self._region_of is not region):
+            self._region = cv2.resize(region[y0:y1, x0:x1], (self._frame.shape[1], self._frame.shape[0]),
+                                      interpolation=cv2.INTER_NEAREST)
+            self._region_of = region
 
     def _remember(self) -> None:
         if self._frame is None:
@@ -81,10 +91,12 @@ class MotionMap:
             cv2.accumulateWeighted(self._frame, self._background, LEARN_RATE)
 
     def blobs(self, ball_bgr: np.ndarray, radius_at: Callable[[float, float], float],
-              centre: Optional[np.ndarray] = None,
-              reach: float = math.inf) -> list[MotionBlob]:
+              centre: Optional[np.ndarray] = None, reach: float = math.inf,
+              felt_bgr: Optional[np.ndarray] = None) -> list[MotionBlob]:
         """Blobs of the ball's shares in this frame, within reach px of centre (full-frame pixels) when given, best
-        first."""
+        first. felt_bgr: the bare felt's colour; given, a blob's seeds must be shares of the ball over the felt too (a
+        figure that moved off the felt leaves felt where the background has the figure: a change toward the ball's
+        colour from the figure's, but no ball)."""
         if self._frame is None or self._background is None:
             return []
         x0, y0, x1, y1 = self._roi
@@ -102,18 +114,31 @@ class MotionMap:
         length2 = np.einsum("ijk,ijk->ij", towards, towards)
         alpha = np.einsum("ijk,ijk->ij", change, towards) / np.maximum(length2, 1e-3)
         off = np.linalg.norm(change - alpha[..., None] * towards, axis=2)
-        share = ((alpha >= ALPHA_RANGE[0]) & (alpha <= ALPHA_RANGE[1]) & (length2 >= MIN_CONTRAST ** 2)
-                 & (off <= OFF_LINE + OFF_SLOPE * alpha * np.sqrt(length2)))
+        like_ball = (length2 >= MIN_CONTRAST ** 2) & (alpha <= ALPHA_RANGE[1]) & (
+            off <= OFF_LINE + OFF_SLOPE * np.maximum(alpha, 0.0) * np.sqrt(length2))
         if self._region is not None:
-            share &= self._region[by0:by1, bx0:bx1] > 0
-        n, labels, stats, _ = cv2.connectedComponentsWithStats(share.astype(np.uint8), connectivity=8)
+            like_ball &= self._region[by0:by1, bx0:bx1] > 0
+        faint = like_ball & (alpha >= FAINT_ALPHA)
+        share = faint & (alpha >= ALPHA_RANGE[0])
+        if felt_bgr is not None:
+            felt = felt_bgr.astype(np.float32)
+            over_felt = ball_bgr.astype(np.float32) - felt
+            share &= (frame - felt) @ over_felt / max(float(over_felt @ over_felt), 1e-3) >= ALPHA_RANGE[0]
+        n, labels, stats, centroids = cv2.connectedComponentsWithStats(share.astype(np.uint8), connectivity=8)
         found = []
         for i in range(1, n):
             if stats[i, cv2.CC_STAT_AREA] < 3:
                 continue
-            sx, sy, sw, sh = (int(stats[i, c]) for c in (cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP, cv2.CC_STAT_WIDTH,
-                                                          cv2.CC_STAT_HEIGHT))
-            ys, xs = np.nonzero(labels[sy:sy + sh, sx:sx + sw] == i)
+            r = radius_at(x0 + (bx0 + centroids[i][0] + 0.5) / SCALE - 0.5,
+                          y0 + (by0 + centroids[i][1] + 0.5) / SCALE - 0.5) * SCALE
+            # The blob's own pixels and the faint shares around it (a streak's ends, a blurred rim): all of its shares.
+            pad = int(math.ceil(0.5 * r)) + 1
+            sx, sy = max(0, int(stats[i, cv2.CC_STAT_LEFT]) - pad), max(0, int(stats[i, cv2.CC_STAT_TOP]) - pad)
+            ex = min(share.shape[1], int(stats[i, cv2.CC_STAT_LEFT] + stats[i, cv2.CC_STAT_WIDTH]) + pad)
+            ey = min(share.shape[0], int(stats[i, cv2.CC_STAT_TOP] + stats[i, cv2.CC_STAT_HEIGHT]) + pad)
+            grown = cv2.dilate((labels[sy:ey, sx:ex] == i).astype(np.uint8),
+                               cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * pad + 1, 2 * pad + 1)))
+            ys, xs = np.nonzero(grown & faint[sy:ey, sx:ex])
             weights = np.clip(alpha[ys + sy, xs + sx], 0.0, 1.0)
             total = float(weights.sum())
             cu = float((xs + sx) @ weights) / total
@@ -121,7 +146,6 @@ class MotionMap:
             u, v = x0 + (bx0 + cu + 0.5) / SCALE - 0.5, y0 + (by0 + cv_ + 0.5) / SCALE - 0.5
             if centre is not None and math.hypot(u - centre[0], v - centre[1]) > reach:
                 continue
-            r = radius_at(u, v) * SCALE
             shares = total / (math.pi * r * r)
             if not SHARES_RANGE[0] <= shares <= SHARES_RANGE[1]:
                 continue
@@ -140,3 +164,7 @@ class MotionMap:
         else:
             found.sort(key=lambda b: -min(b.shares, 1.0 / b.shares) * b.roundness)
         return found
+
+
+def _inside(inner: tuple[int, int, int, int], outer: tuple[int, int, int, int]) -> bool:
+    return inner[0] >= outer[0] and inner[1] >= outer[1] and inner[2] <= outer[2] and inner[3] <= outer[3]
