@@ -64,8 +64,6 @@ STREAK_FROM = 2.0  # radii: see BallSearch.streak_from
 # A short streak (no track running) is looked for around the SHORT_STREAK_LOOKS best partial balls of the field search,
 # in a window SHORT_STREAK_WINDOW radii from their centres (a smear of 2 radii plus a disc, with room for a rod across).
 SHORT_STREAK_LOOKS, SHORT_STREAK_WINDOW = 2, 4.0
-# A moved blob with no track running: about one disc of shares, roundish (a streak is for the track to follow).
-MOVED_SHARES, MOVED_ROUNDNESS = (0.6, 1.6), 0.5
 # Near a prediction, a moved blob of fewer shares than this (but at least motion_ball.SHARES_RANGE's 0.2: a ball half
 # under a foot) counts only within PARTIAL_NEAR radii (plus 2 sigma) of it.
 MOVED_NEAR_SHARES = 0.3
@@ -223,16 +221,6 @@ class BallSearch:
                 continue
             c = blob.candidate()
             if not self.rules.covers_rod(bgr, c, self.colour):
-                return c, None, None
-        return NOTHING
-
-    def moved_on_field(self, bgr: np.ndarray):
-        """The most ball-like blob of the ball's colour where the table changed, anywhere on the field: a first
-        sighting only (see BallTracker._acquire), never a whole ball."""
-        for blob in self.motion.blobs(self._ball_colour(), self.view.radius_at_pixel, felt_bgr=self._felt_colour(bgr)):
-            c = blob.candidate()
-            if (MOVED_SHARES[0] <= blob.shares <= MOVED_SHARES[1] and blob.roundness >= MOVED_ROUNDNESS
-                    and not self.rules.covers_rod(bgr, c, self.colour) and not self.fixtures.is_fixture(c, count=False)):
                 return c, None, None
         return NOTHING
 

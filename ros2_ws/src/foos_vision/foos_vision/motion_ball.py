@@ -11,8 +11,9 @@ own colour's direction, a flicker of the lights along F's: neither is a share of
 a share of the ball (ALPHA_RANGE, off that direction by little) make blobs; a blob is the ball when its shares add up
 to about a disc of the ball's size there (a streak's shares add up to one disc too) and it is as wide as one across.
 
-This finds a ball that the colour box misses: streaked, dimmed in a goal mouth, half under a foot. It is what the
-tracker asks when nothing else is found, and it never starts a track on one sighting.
+This finds a ball that the colour box misses: streaked, dimmed in a goal mouth, half under a foot, where a running
+track expects it (BallSearch.moved_near). It starts no track: searched over the whole field with no track running, it
+found nothing on goal5 in 72 frames and cost 15 % of the throughput.
 """
 from __future__ import annotations
 
@@ -109,13 +110,16 @@ class MotionMap:
                 return []
         frame = self._frame[by0:by1, bx0:bx1]
         background = self._background[by0:by1, bx0:bx1]
+        # Per pixel, with c = P - F and e = B - F: alpha = c.e / e.e, and off the line |c|^2 - alpha^2 e.e (channel sums
+        # by cv2.transform: four times faster than numpy's on a 1080p field).
+        ones = np.ones((1, 3), np.float32)
         change = frame - background
         towards = ball_bgr.astype(np.float32)[None, None, :] - background
-        length2 = np.einsum("ijk,ijk->ij", towards, towards)
-        alpha = np.einsum("ijk,ijk->ij", change, towards) / np.maximum(length2, 1e-3)
-        off = np.linalg.norm(change - alpha[..., None] * towards, axis=2)
-        like_ball = (length2 >= MIN_CONTRAST ** 2) & (alpha <= ALPHA_RANGE[1]) & (
-            off <= OFF_LINE + OFF_SLOPE * np.maximum(alpha, 0.0) * np.sqrt(length2))
+        length2 = cv2.transform(towards * towards, ones)
+        alpha = cv2.transform(change * towards, ones) / np.maximum(length2, 1e-3)
+        off2 = np.maximum(cv2.transform(change * change, ones) - alpha * alpha * length2, 0.0)
+        allowed = OFF_LINE + OFF_SLOPE * np.maximum(alpha, 0.0) * np.sqrt(length2)
+        like_ball = (length2 >= MIN_CONTRAST ** 2) & (alpha <= ALPHA_RANGE[1]) & (off2 <= allowed * allowed)
         if self._region is not None:
             like_ball &= self._region[by0:by1, bx0:bx1] > 0
         faint = like_ball & (alpha >= FAINT_ALPHA)
@@ -123,7 +127,9 @@ class MotionMap:
         if felt_bgr is not None:
             felt = felt_bgr.astype(np.float32)
             over_felt = ball_bgr.astype(np.float32) - felt
-            share &= (frame - felt) @ over_felt / max(float(over_felt @ over_felt), 1e-3) >= ALPHA_RANGE[0]
+            over_felt_alpha = (cv2.transform(frame, over_felt[None, :]) - float(felt @ over_felt)) / max(
+                float(over_felt @ over_felt), 1e-3)
+            share &= over_felt_alpha >= ALPHA_RANGE[0]
         n, labels, stats, centroids = cv2.connectedComponentsWithStats(share.astype(np.uint8), connectivity=8)
         found = []
         for i in range(1, n):

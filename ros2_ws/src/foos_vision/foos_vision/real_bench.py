@@ -18,6 +18,9 @@ clip's label boxes; a detection is false when it lies more than two diameters fr
 ball label. Median and p95 error (px) are over the detections within two diameters of a label. A frame without a
 label file is not scored. A visibility list has no positions: found is a detection in a visible frame, false a
 detection in any other, and no error is measured (`-`).
+
+Throughput (`fps`: decoding and tracking; `dec fps`: decoding alone, in the same run) is frames per CPU second of this
+process, so that other jobs on a shared machine do not count; run it on one core (`taskset -c 0`) for the target.
 """
 from __future__ import annotations
 
@@ -260,18 +263,18 @@ def track_clip(clip: Clip, params_file: Optional[str] = None) -> tuple[dict[int,
     layout = field_reference(str(clip.markers) if clip.markers else None, clip.corners,
                              names=("markers file", "field_corners.txt"))
     config = TrackerConfig(params_file=params_file)
-    started = time.perf_counter()
+    started = time.process_time()
     decoded = sum(1 for _ in _frames_of(clip, fps))
-    decode_time = time.perf_counter() - started
+    decode_time = time.process_time() - started
     probe = (frame for index, _, frame in _frames_of(clip, fps) if index < 10 * fps)
     config.ball_color = choose_colour(probe, layout, config, fps) or "auto"
     tracker = BallTracker(layout, config)
     offline = OfflineTracker(tracker, fps)
-    started = time.perf_counter()
+    started = time.process_time()
     for index, t, frame in _frames_of(clip, fps):
         offline.process(index, t, frame)
     offline.finish()
-    track_time = time.perf_counter() - started
+    track_time = time.process_time() - started
     results = offline.results()
     info = {"fps_track": decoded / track_time, "fps_decode": decoded / decode_time, "frames": decoded,
             "colour": tracker.colour.name}
@@ -286,13 +289,13 @@ def find_stills(clip: Clip, params_file: Optional[str] = None) -> tuple[dict[int
     finder = StillBallFinder(params_file)
     found: dict[int, tuple[float, float]] = {}
     no_field = 0
-    started = time.perf_counter()
+    started = time.process_time()
     for k, _, image in _frames_of(clip, DEFAULT_FPS):
         field_, candidates = finder.find(image)
         no_field += field_ is None
         if candidates:
             found[k] = (candidates[0].u, candidates[0].v)
-    elapsed = time.perf_counter() - started
+    elapsed = time.process_time() - started
     return found, {"fps_track": len(clip.frames) / elapsed, "frames": len(clip.frames), "no_field": no_field}
 
 

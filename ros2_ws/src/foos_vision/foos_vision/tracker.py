@@ -272,9 +272,6 @@ class BallTracker:
             # like a ball-like blob needs a second sighting (either) to start a track.
             found = self.search.short_streak(bgr)
             if found[0] is None:
-                # Or a ball of its colour where the table changed, which like a short streak needs a second sighting.
-                found = self.search.moved_on_field(bgr)
-            if found[0] is None:
                 self._pending = None
                 return run
         # A new track needs a ball-like blob in two frames running, close together: the outline of a
