@@ -5,8 +5,12 @@ import math
 
 import cv2
 import numpy as np
+import pytest
 
 from foos_vision.motion_ball import MotionMap
+from foos_vision.tracker import BallTracker, TrackerConfig
+
+from .drawn_table import FPS, draw_ball, table_frame, write_layout
 
 FELT = (60, 120, 40)  # BGR green felt
 YELLOW = (40, 200, 220)
@@ -75,3 +79,25 @@ def test_a_ball_resting_becomes_table_and_the_window_bounds_the_search():
     everywhere = motion.blobs(np.array(YELLOW, float), lambda u, v: RADIUS)
     assert [(round(b.u), round(b.v)) for b in everywhere] == [(250, 180)]
     assert motion.blobs(np.array(YELLOW, float), lambda u, v: RADIUS, np.array([60.0, 60.0]), 40.0) == []
+
+
+@pytest.mark.timeout(120)
+def test_a_ball_of_no_prototype_colour_is_learned_from_its_motion_and_tracked(tmp_path):
+    # A yellow-green ball (Lab a 78, b 198, hue 44: outside the yellow prototype's box and hue band) rolling over
+    # the drawn table: auto settles on no prototype, learns the moving ball's colour, then tracks it.
+    layout = write_layout(tmp_path / "markers.yaml")
+    tracker = BallTracker(layout, TrackerConfig(ball_color="auto"))
+    lime = (60, 230, 150)
+    found, settled_at = [], None
+    for k in range(160):
+        x, y = -0.25 + 0.5 * k / 160, -0.55 + 1.1 * k / 160
+        frame = table_frame()
+        draw_ball(frame, x, y, lime)
+        detection = tracker.process(cv2.GaussianBlur(frame, (3, 3), 0.7), k / FPS)
+        if tracker.colour_settled and settled_at is None:
+            settled_at = k
+        if detection is not None:
+            found.append(math.hypot(detection.x - x, detection.y - y))
+    assert tracker.colour.name == "learned", tracker.colour
+    assert settled_at is not None and len(found) >= 0.9 * (160 - settled_at - 1), (settled_at, len(found))
+    assert max(found) < 0.003, max(found)

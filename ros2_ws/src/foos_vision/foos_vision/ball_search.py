@@ -151,7 +151,7 @@ class BallSearch:
         if roi is None:
             return NOTHING
         found = []
-        for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self._felt_colour(bgr),
+        for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self.felt_colour(bgr),
                               view.active_region, min_motion=STREAK_MOMENT_MOTION, width=STREAK_WIDTH,
                               near=(float(expected[0]), float(expected[1])), rod_axes=self._figure_axes()):
             r = view.radius_at_pixel(s.u, s.v)
@@ -178,7 +178,7 @@ class BallSearch:
             roi = _square(view.roi, (c.u, c.v), SHORT_STREAK_WINDOW * radius)
             if roi is None:
                 continue
-            for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self._felt_colour(bgr),
+            for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self.felt_colour(bgr),
                                   view.active_region, min_motion=STREAK_MOMENT_MOTION, width=STREAK_WIDTH,
                                   near=(c.u, c.v), most=1, rod_axes=rod_axes):
                 # The partial ball is the smear's middle: the streak's centre lies within a radius of it.
@@ -213,7 +213,7 @@ class BallSearch:
         sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
         gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
         centre = view.table_to_pixel(state.x[:2])
-        for blob in self.motion.blobs(self._ball_colour(), view.radius_at_pixel, centre, gate, self._felt_colour(bgr)):
+        for blob in self.motion.blobs(self._ball_colour(), view.radius_at_pixel, centre, gate, self.felt_colour(bgr)):
             # Part of a ball (under a foot, a figure's edge across it) only where one is expected, as for the colour
             # box's partial blobs (PARTIAL_NEAR).
             partial_reach = PARTIAL_NEAR * radius + 2.0 * sigma
@@ -260,7 +260,7 @@ class BallSearch:
         lab = np.array([[[(m.l_min + m.l_max) / 2, m.a, m.b]]], np.uint8)
         return cv2.cvtColor(lab, cv2.COLOR_Lab2BGR)[0, 0].astype(np.float64)
 
-    def _felt_colour(self, bgr: np.ndarray) -> np.ndarray:
+    def felt_colour(self, bgr: np.ndarray) -> np.ndarray:
         """The bare felt's median BGR, taken again whenever the view's felt colour (Lab a, b) is."""
         felt_ab = self.view.felt_ab
         if self._felt[0] is None or self._felt[0] != felt_ab:

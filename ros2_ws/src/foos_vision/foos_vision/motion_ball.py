@@ -35,6 +35,9 @@ OFF_LINE = 12.0  # BGR levels off the background-to-ball line still a share, plu
 SHARES_RANGE = (0.2, 2.5)  # a blob's shares over a disc: a fifth of a ball (under a foot) to a ball with its shadow
 WIDTH_RANGE = (0.5, 1.6)  # the blob's spread across its long axis over a disc's (r / 2)
 BOX_MARGIN = 32  # px around the field's box kept in the background
+CHANGE_MIN = 30.0  # BGR levels (Euclidean) a pixel changes by, against the background, to be something that moved
+MOVED_AREA, MOVED_ROUNDNESS = (0.5, 1.6), 0.6  # a moving blob of any colour that may be the ball: about a disc, round
+CORE = 0.6  # radii: the core of a moving blob, whose mean colour is the ball's
 MIN_CONTRAST = 25.0  # BGR levels between the ball's colour and the background: less, and no share can be told
 OFF_SLOPE = 0.4  # the ball's own shading and its blend with what is beside it turn its change off the line
 
@@ -90,6 +93,37 @@ class MotionMap:
             self._background = self._frame.copy()
         else:
             cv2.accumulateWeighted(self._frame, self._background, LEARN_RATE)
+
+    def moved(self, radius_at: Callable[[float, float], float]) -> list[tuple[float, float, np.ndarray]]:
+        """Round, ball-sized blobs of pixels that changed, whatever their colour: (u, v, the mean BGR of the frame in
+        their core). What the ball's colour is learned from when no colour prototype fits it (ball_colour)."""
+        if self._frame is None or self._background is None:
+            return []
+        change = self._frame - self._background
+        moved = cv2.transform(change * change, np.ones((1, 3), np.float32)) >= CHANGE_MIN ** 2
+        if self._region is not None:
+            moved &= self._region > 0
+        n, labels, stats, centroids = cv2.connectedComponentsWithStats(moved.astype(np.uint8), connectivity=8)
+        x0, y0 = self._roi[0], self._roi[1]
+        found = []
+        for i in range(1, n):
+            area = float(stats[i, cv2.CC_STAT_AREA])
+            cu, cv_ = centroids[i]
+            u, v = x0 + (cu + 0.5) / SCALE - 0.5, y0 + (cv_ + 0.5) / SCALE - 0.5
+            r = radius_at(u, v) * SCALE
+            if not MOVED_AREA[0] <= area / (math.pi * r * r) <= MOVED_AREA[1]:
+                continue
+            sx, sy, sw, sh = (int(stats[i, c]) for c in (cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP, cv2.CC_STAT_WIDTH,
+                                                          cv2.CC_STAT_HEIGHT))
+            ys, xs = np.nonzero(labels[sy:sy + sh, sx:sx + sw] == i)
+            ev = np.linalg.eigvalsh(np.cov(np.stack([xs, ys]).astype(float)))
+            if math.sqrt(max(ev[0], 1e-6) / max(ev[1], 1e-6)) < MOVED_ROUNDNESS:
+                continue
+            core = (xs + sx - cu) ** 2 + (ys + sy - cv_) ** 2 <= (CORE * r) ** 2
+            if np.count_nonzero(core) < 3:
+                continue
+            found.append((u, v, self._frame[ys[core] + sy, xs[core] + sx].mean(axis=0)))
+        return found
 
     def blobs(self, ball_bgr: np.ndarray, radius_at: Callable[[float, float], float],
               centre: Optional[np.ndarray] = None, reach: float = math.inf,
