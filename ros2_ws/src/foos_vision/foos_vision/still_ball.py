@@ -24,6 +24,7 @@ from foos_core.table_geometry import TableGeometry
 WORK_WIDTH = 960  # px: frames are searched at this width (a 1080p ball of 16-40 px keeps 8-20 px)
 FELT_CHROMA_TOL = 6.0  # Lab a/b levels around the felt's mode that are still felt
 FELT_LIGHT_TOL = 45.0  # L levels: the felt's light falls off toward the walls
+MIN_FELT_FILL = 0.5  # of the felt's closed stretch that is felt-coloured
 MIN_FIELD_SHARE = 0.08  # of the image: less, and the felt found is not a table's playing field
 AREA_RANGE = (0.35, 1.8)  # a candidate's area over the expected disc's (part hidden by a foot; blur grows it)
 MIN_ROUNDNESS = 0.55  # minor over major axis of the blob's second moments (a line, a leg: far less)
@@ -81,9 +82,11 @@ class StillBallFinder:
             return None, None
         best = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
         share = stats[best, cv2.CC_STAT_AREA] / float(h * w)
-        if share < MIN_FIELD_SHARE:
+        piece = labels == best
+        # A felt is mostly of its colour before the closing (lines, rods and figures cover a part); noise is not.
+        if share < MIN_FIELD_SHARE or np.count_nonzero(felt[piece]) < MIN_FELT_FILL * np.count_nonzero(piece):
             return None, None
-        points = cv2.findNonZero((labels == best).astype(np.uint8))
+        points = cv2.findNonZero(piece.astype(np.uint8))
         hull = cv2.convexHull(points).reshape(-1, 2)
         (_, _), (rw, rh), _ = cv2.minAreaRect(hull)
         short_side = min(rw, rh)
