@@ -40,6 +40,7 @@ from .candidate_rules import (
 )
 from .detector import FELT_AB_TOL, BallDetector, Candidate, ColourModel
 from .field_view import FieldView
+from .motion_ball import SCALE as MOTION_SCALE
 from .motion_ball import MotionMap
 from .streaks import Streak, find_streaks
 from .velocity import KalmanState
@@ -67,6 +68,12 @@ SHORT_STREAK_LOOKS, SHORT_STREAK_WINDOW = 2, 4.0
 # Near a prediction, a moved blob of fewer shares than this (but at least motion_ball.SHARES_RANGE's 0.2: a ball half
 # under a foot) counts only within PARTIAL_NEAR radii (plus 2 sigma) of it.
 MOVED_NEAR_SHARES = 0.3
+# The ball's radius (px) at the background's resolution below which no moved blob is looked at: a ball of 3 px there
+# (6 px in the frame) is a few dozen pixels, whose shares, width and roundness are at the level of compression noise
+# and figures' edges. On the 640x480 renders (4-6 px) the moved blobs found were 6-26 mm off the ball, took a red figure
+# on the oblique orange case (p95 3.1 -> 185 mm, 33 false detections per 1000 hidden frames, before the 1.5-disc
+# limit) and a red figure that swung into view on the 30 fps orange shots (25 per 1000).
+MOTION_MIN_RADIUS = 3.5
 BALL_COLOUR_SAMPLES = 40  # whole balls in plain view whose mean colour is the streak search's ball colour
 
 
@@ -210,6 +217,8 @@ class BallSearch:
         view = self.view
         ppm = view.mapping.pixels_per_metre(state.x[:2])
         radius = view.table.ball_radius * ppm
+        if radius * MOTION_SCALE < MOTION_MIN_RADIUS:
+            return NOTHING
         sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
         gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
         centre = view.table_to_pixel(state.x[:2])

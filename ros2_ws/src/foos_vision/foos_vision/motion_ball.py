@@ -32,7 +32,8 @@ ALPHA_RANGE = (0.25, 1.4)  # a pixel's share of the ball that seeds a blob: belo
 # the ball's colour
 FAINT_ALPHA = 0.1  # around a blob's seeds, fainter shares count too (a streak's ends, a blurred rim)
 OFF_LINE = 12.0  # BGR levels off the background-to-ball line still a share, plus OFF_SLOPE of the share's length (shade)
-SHARES_RANGE = (0.2, 2.5)  # a blob's shares over a disc: a fifth of a ball (under a foot) to a ball with its shadow
+SHARES_RANGE = (0.2, 1.5)  # a blob's shares over a disc: a fifth of a ball (under a foot) to one ball (they add up to
+# one disc whatever it did; more is something else, a red figure come to rest in a new pose for an orange ball)
 WIDTH_RANGE = (0.5, 1.6)  # the blob's spread across its long axis over a disc's (r / 2)
 BOX_MARGIN = 32  # px around the field's box kept in the background
 CHANGE_MIN = 30.0  # BGR levels (Euclidean) a pixel changes by, against the background, to be something that moved

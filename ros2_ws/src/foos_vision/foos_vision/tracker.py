@@ -224,7 +224,7 @@ class BallTracker:
             # Nothing of the ball's colour box, nor a streak: the ball's colour where the table changed (motion_ball).
             moved = self.search.moved_near(bgr, predicted, t - self.kalman.state.t)
             if moved[0] is not None:
-                return moved
+                return self._follow_partial(bgr, t, moved)  # never a whole ball: a track on these alone ends
         return self._acquire(bgr, t)
 
     def _follow_partial(self, bgr: np.ndarray, t: float, found):
