@@ -102,3 +102,29 @@ def test_leonhart_row():
     assert result.returncode == 0, result.stderr
     row = next(line for line in result.stdout.splitlines() if line.startswith("leonhart "))
     assert "stills, field found" in row and " 41 " in row, row
+
+
+@pytest.mark.timeout(180)
+def test_a_labelled_sequence_of_frames_with_markers_is_tracked_and_scored(tmp_path):
+    # Drawn frames with real tags (drawn_table), an orange ball rolling, YOLO labels from the truth, the markers file:
+    # the tracker's own detections are scored against the labels.
+    from .drawn_table import draw_ball, table_frame, to_pixel, write_layout
+
+    clip = tmp_path / "drawn"
+    clip.mkdir()
+    write_layout(clip / "markers.yaml")
+    for k in range(30):
+        x, y = -0.2 + 0.01 * k, -0.3 + 0.02 * k
+        frame = table_frame()
+        draw_ball(frame, x, y)
+        cv2.imwrite(str(clip / f"frame_{k:03d}.png"), cv2.GaussianBlur(frame, (3, 3), 0.7))
+        u, v = to_pixel(x, y)
+        (clip / f"frame_{k:03d}.txt").write_text(f"0 {u / 640:.6f} {v / 480:.6f} {14 / 640:.6f} {14 / 480:.6f}\n")
+    (clip / "frame_030.png").write_bytes((clip / "frame_000.png").read_bytes())  # a frame with no ball label file
+    result = bench("--real", str(clip))
+    assert result.returncode == 0, result.stderr
+    row = next(line for line in result.stdout.splitlines() if line.startswith("drawn "))
+    fields = row.split()  # clip, mode ("frames, tags"), frames, ball, found, recall, med, p95, dets, false, ...
+    frames, ball, found, median, false = int(fields[3]), int(fields[4]), int(fields[5]), float(fields[7]), int(fields[10])
+    assert (frames, ball) == (31, 30), row
+    assert found >= 27 and median < 1.0 and false == 0, row
