@@ -14,12 +14,14 @@ Modules, one concern each. The tracker (ROS-free), along a frame's path:
   ball_search            the searches: near the track, elsewhere, the whole field, runs of partial balls,
                          and streaks
   streaks                a motion-blurred ball: the shares of its colour per pixel, a moving disc fitted
-  ball_colour            the `auto` colour vote and the colour learnt from the ball seen
+  motion_ball            the static table's background and the ball's shares where the table changed
+  ball_colour            the `auto` colour vote, the colour learnt from what moves, and from the ball seen
   tracker                BallTracker: the track's state, frame by frame; choose_colour
   velocity, backfill     Kalman filter and central differences; the offline backward pass
   joint_sync             live frames paired with rod joint readings
 
 Around it: bag_inputs (the joint states track_video reads from a bag), image_msg (sensor_msgs/Image to BGR),
-video_io, annotate; the commands track_cli, calibrate_camera, bench (which films with foos_sim.camera), and
-moved (render_video, now foos_sim's); the nodes tracker_node and video_source.
+video_io, annotate; the commands track_cli, calibrate_camera, bench (which films with foos_sim.camera; with
+real_bench: real footage, and still_ball: the ball in a single still), camera_loop (the simulated camera in
+the loop, measured) and moved (render_video, now foos_sim's); the nodes tracker_node and video_source.
 """

@@ -40,6 +40,8 @@ from .candidate_rules import (
 )
 from .detector import FELT_AB_TOL, BallDetector, Candidate, ColourModel
 from .field_view import FieldView
+from .motion_ball import SCALE as MOTION_SCALE
+from .motion_ball import MotionMap
 from .streaks import Streak, find_streaks
 from .velocity import KalmanState
 
@@ -63,6 +65,15 @@ STREAK_FROM = 2.0  # radii: see BallSearch.streak_from
 # A short streak (no track running) is looked for around the SHORT_STREAK_LOOKS best partial balls of the field search,
 # in a window SHORT_STREAK_WINDOW radii from their centres (a smear of 2 radii plus a disc, with room for a rod across).
 SHORT_STREAK_LOOKS, SHORT_STREAK_WINDOW = 2, 4.0
+# Near a prediction, a moved blob of fewer shares than this (but at least motion_ball.SHARES_RANGE's 0.2: a ball half
+# under a foot) counts only within PARTIAL_NEAR radii (plus 2 sigma) of it.
+MOVED_NEAR_SHARES = 0.3
+# The ball's radius (px) at the background's resolution below which no moved blob is looked at: a ball of 3 px there
+# (6 px in the frame) is a few dozen pixels, whose shares, width and roundness are at the level of compression noise
+# and figures' edges. On the 640x480 renders (4-6 px) the moved blobs found were 6-26 mm off the ball, took a red figure
+# on the oblique orange case (p95 3.1 -> 185 mm, 33 false detections per 1000 hidden frames, before the 1.5-disc
+# limit) and a red figure that swung into view on the 30 fps orange shots (25 per 1000).
+MOTION_MIN_RADIUS = 3.5
 BALL_COLOUR_SAMPLES = 40  # whole balls in plain view whose mean colour is the streak search's ball colour
 
 
@@ -83,6 +94,7 @@ class BallSearch:
         # fast), and a blob next frame is judged as after a frame without the ball (near: a figure of its colour
         # where a shot went into the goal does not carry the track).
         self.after_streak = False
+        self.motion = MotionMap()  # the tracker shows it every frame (MotionMap.look)
 
     @property
     def colour(self) -> ColourModel:
@@ -146,7 +158,7 @@ class BallSearch:
         if roi is None:
             return NOTHING
         found = []
-        for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self._felt_colour(bgr),
+        for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self.felt_colour(bgr),
                               view.active_region, min_motion=STREAK_MOMENT_MOTION, width=STREAK_WIDTH,
                               near=(float(expected[0]), float(expected[1])), rod_axes=self._figure_axes()):
             r = view.radius_at_pixel(s.u, s.v)
@@ -173,7 +185,7 @@ class BallSearch:
             roi = _square(view.roi, (c.u, c.v), SHORT_STREAK_WINDOW * radius)
             if roi is None:
                 continue
-            for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self._felt_colour(bgr),
+            for s in find_streaks(bgr, roi, view.radius_at_pixel, self._ball_colour(), self.felt_colour(bgr),
                                   view.active_region, min_motion=STREAK_MOMENT_MOTION, width=STREAK_WIDTH,
                                   near=(c.u, c.v), most=1, rod_axes=rod_axes):
                 # The partial ball is the smear's middle: the streak's centre lies within a radius of it.
@@ -198,6 +210,28 @@ class BallSearch:
         axis = c.streak.axis  # distance of the last detection from the streak's line (a 2-D cross product)
         off = abs(float(axis[0] * (start[1] - c.v) - axis[1] * (start[0] - c.u)))
         return off <= STREAK_FROM * view.radius_at_pixel(c.u, c.v) + 3.0 * sigma
+
+    def moved_near(self, bgr: np.ndarray, state: KalmanState, coast: float = 0.0):
+        """The ball's colour where the table changed (motion_ball), within the gate of `near` around the prediction:
+        a ball the colour box misses (streaked, dimmed, half under a foot)."""
+        view = self.view
+        ppm = view.mapping.pixels_per_metre(state.x[:2])
+        radius = view.table.ball_radius * ppm
+        if radius * MOTION_SCALE < MOTION_MIN_RADIUS:
+            return NOTHING
+        sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
+        gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
+        centre = view.table_to_pixel(state.x[:2])
+        for blob in self.motion.blobs(self._ball_colour(), view.radius_at_pixel, centre, gate, self.felt_colour(bgr)):
+            # Part of a ball (under a foot, a figure's edge across it) only where one is expected, as for the colour
+            # box's partial blobs (PARTIAL_NEAR).
+            partial_reach = PARTIAL_NEAR * radius + 2.0 * sigma
+            if blob.shares < MOVED_NEAR_SHARES and math.hypot(blob.u - centre[0], blob.v - centre[1]) > partial_reach:
+                continue
+            c = blob.candidate()
+            if not self.rules.covers_rod(bgr, c, self.colour):
+                return c, None, None
+        return NOTHING
 
     def measurement_covariance(self, c: Candidate, std: float) -> Optional[np.ndarray]:
         """The covariance (m^2, table frame) of a streak's centre, elongated along it; None for a ball seen as a disc
@@ -235,7 +269,7 @@ class BallSearch:
         lab = np.array([[[(m.l_min + m.l_max) / 2, m.a, m.b]]], np.uint8)
         return cv2.cvtColor(lab, cv2.COLOR_Lab2BGR)[0, 0].astype(np.float64)
 
-    def _felt_colour(self, bgr: np.ndarray) -> np.ndarray:
+    def felt_colour(self, bgr: np.ndarray) -> np.ndarray:
         """The bare felt's median BGR, taken again whenever the view's felt colour (Lab a, b) is."""
         felt_ab = self.view.felt_ab
         if self._felt[0] is None or self._felt[0] != felt_ab:

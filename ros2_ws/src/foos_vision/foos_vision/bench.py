@@ -59,6 +59,7 @@ from foos_sim.camera.render import read_joints, read_truth
 
 from .backfill import OfflineTracker
 from .figure_mask import FigureGeometry, joint_track
+from .real_bench import run_cli_body, run_real
 from .tracker import BallTracker, TrackerConfig, choose_colour
 from .velocity import central_differences
 from .video_io import VideoReader
@@ -334,7 +335,13 @@ def main(argv=None) -> None:
     p.add_argument("--figure-mask", choices=("off", "on", "both"), default="both",
                    help="track without the figure mask from the rendered joint positions, with it (+mask rows), "
                         "or both (default)")
+    p.add_argument("--real", metavar="DIR",
+                   help="score real footage instead of renders: a clip folder, or a folder of them (see real_bench)")
+    p.add_argument("--params-file", help="the filmed table's parameter file, for --real (default: the regulation table)")
     args = p.parse_args(argv)
+    if args.real:
+        run_cli_body(lambda: run_real(Path(args.real), args.params_file))
+        return
     cases = list(SHOT_CASES if args.shots else CASES)
     if args.cases:
         wanted = args.cases.split(",")

@@ -11,14 +11,14 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Optional, Union
 
 import numpy as np
 
 from foos_core.camera_model import Intrinsics
 from foos_core.markers import BALL_CENTRE_HEIGHT, MarkerLayout
 
-from .ball_colour import ColourLearner, ColourVote
+from .ball_colour import ColourLearner, ColourVote, MotionColourVote
 from .ball_search import NOTHING, BallSearch
 from .candidate_rules import (
     ACQUIRE_WINDOW,
@@ -45,7 +45,7 @@ EDGE_SAMPLES = 40  # whole balls in view whose colour masks give the mask's edge
 
 @dataclass
 class TrackerConfig:
-    ball_color: str = "auto"
+    ball_color: Union[str, ColourModel] = "auto"  # a prototype's name, auto, or a colour learned before (choose_colour)
     intrinsics: Optional[Intrinsics] = None
     tag_interval: int = 30  # frames between tag refits once the tags are found (the camera is mounted)
     fovy_hint: float = 50.0  # used only for parallax (tags off the ball plane, or field corners) and no intrinsics
@@ -88,14 +88,16 @@ class BallTracker:
         self.layout = layout
         self.figures = figures
         self.config = config or TrackerConfig()
-        if self.config.ball_color != "auto" and self.config.ball_color not in BALL_COLOR_NAMES:
-            raise ValueError(f"unknown ball colour `{self.config.ball_color}` (auto, {', '.join(BALL_COLOR_NAMES)})")
+        given = self.config.ball_color
+        if not isinstance(given, ColourModel) and given != "auto" and given not in BALL_COLOR_NAMES:
+            raise ValueError(f"unknown ball colour `{given}` (auto, {', '.join(BALL_COLOR_NAMES)})")
         self.stats = TrackerStats()
         self.view = FieldView(layout, self.config, self.stats, figures)
         self.kalman = ConstantVelocityKalman(measurement_std=self.config.measurement_std)
-        start = "white" if self.config.ball_color == "auto" else self.config.ball_color
-        self.search = BallSearch(self.view, BallDetector(colour_model(start)))
+        start = given if isinstance(given, ColourModel) else colour_model("white" if given == "auto" else given)
+        self.search = BallSearch(self.view, BallDetector(start))
         self._colour_vote = ColourVote()
+        self._motion_colour = MotionColourVote()
         self._colour_settled = self.config.ball_color != "auto"
         self._learner = ColourLearner(self.config.learn_after)
         self._whole_ratios: deque = deque(maxlen=EDGE_SAMPLES)  # area ratios of whole balls in plain view
@@ -176,6 +178,7 @@ class BallTracker:
         if self.view.mapping is None:
             return None
         self.stats.frames_with_mapping += 1
+        self.search.motion.look(bgr, self.view.roi, self.view.region)
         self.view.set_figures(joints)
         self.stats.masked_frames += int(self.view.figures_masked)
         if not self._colour_settled:
@@ -219,6 +222,10 @@ class BallTracker:
                 return blurred
             if found[0] is not None:
                 return self._follow_partial(bgr, t, found)
+            # Nothing of the ball's colour box, nor a streak: the ball's colour where the table changed (motion_ball).
+            moved = self.search.moved_near(bgr, predicted, t - self.kalman.state.t)
+            if moved[0] is not None:
+                return self._follow_partial(bgr, t, moved)  # never a whole ball: a track on these alone ends
         return self._acquire(bgr, t)
 
     def _follow_partial(self, bgr: np.ndarray, t: float, found):
@@ -292,6 +299,14 @@ class BallTracker:
                                                   self.stats.frames_with_mapping >= self.config.auto_frames)
         if leading is not None:
             self.search.detector = BallDetector(colour_model(leading))
+        if not settled:
+            # No prototype fits (a yellow-green ball, a cork one): the colour of what moves like a ball, once clear.
+            self._motion_colour.add(self.search.motion.moved(self.view.radius_at_pixel), self.view)
+            learned = (self._motion_colour.model(self.search.felt_colour(bgr))
+                       if self.stats.frames_with_mapping >= 2 * self.config.auto_frames else None)
+            if learned is not None:
+                self.search.detector = BallDetector(learned)
+                settled = True
         if settled:
             self._colour_settled = True
             self.kalman.reset()
@@ -310,9 +325,10 @@ class BallTracker:
 
 
 def choose_colour(frames, layout: MarkerLayout, config: TrackerConfig | None = None, fps: float = 30.0,
-                  figures: Optional[FigureGeometry] = None, joints_at=None) -> Optional[str]:
-    """The ball colour `auto` settles on over these frames (None when it cannot tell), so an offline run
-    can track its first frames with the right colour too. joints_at(t): the rod joints at a frame's time
+                  figures: Optional[FigureGeometry] = None, joints_at=None) -> Union[str, ColourModel, None]:
+    """The ball colour `auto` settles on over these frames (None when it cannot tell): a prototype's name, or the
+    colour learned from the moving ball (a ColourModel), so an offline run can track its first frames with it too.
+    joints_at(t): the rod joints at a frame's time
     (or None), to leave the figures out of the vote."""
     config = config or TrackerConfig()
     tracker = BallTracker(layout, TrackerConfig(ball_color="auto", intrinsics=config.intrinsics,
@@ -322,5 +338,5 @@ def choose_colour(frames, layout: MarkerLayout, config: TrackerConfig | None = N
     for k, frame in enumerate(frames):
         tracker.process(frame, k / fps, joints_at(k / fps) if joints_at is not None else None)
         if tracker.colour_settled:
-            return tracker.colour.name
+            return tracker.colour.name if tracker.colour.name in BALL_COLOR_NAMES else tracker.colour
     return None
