@@ -8,11 +8,13 @@ REFIT_MOVED_PX keeps the rods' placement and the felt's colour: that is tag nois
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Optional
+from dataclasses import dataclass, field
+from typing import Optional
 
 import cv2
 import numpy as np
 
+from foos_core.camera_model import Intrinsics
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
@@ -32,9 +34,6 @@ from .geometry import (
 )
 from .rod_lines import camera_centre, fit_rod_shifts, rod_axis_mask, rod_bands, rod_geometry, rod_mask
 
-if TYPE_CHECKING:  # tracker.py makes the view and imports this module: its types are only named here
-    from .tracker import TrackerConfig, TrackerStats
-
 RADIUS_GRID = 16  # px, spacing of the expected-radius lookup
 REFIT_MOVED_PX = 0.5  # a tag refit that moves the field's corners less than this keeps the rods' placement
 # Where the ball can be seen: the playing field and the goal mouths, with a ball radius of margin. The pockets
@@ -43,20 +42,32 @@ REFIT_MOVED_PX = 0.5  # a tag refit that moves the field's corners less than thi
 MOUTH_DEPTH_SEEN = 0.025
 
 
+@dataclass
+class TagFitStats:
+    """What the tag fits saw, counted by FieldView.refit for the tracker's report (tracker.TrackerStats adds
+    its own counts to these)."""
+    tag_fits: int = 0
+    tags_seen: set = field(default_factory=set)
+    rejected_fits: int = 0
+    dropped_tags: dict = field(default_factory=dict)  # id -> worst disagreement (m) when left out of a fit
+
+
 class FieldView:
     """What the latest tag fit says about the image: where the field is, where the rods and (with joint
     positions) the figures are, and how large the ball looks at any pixel. Updated by refit() and, per frame,
     by set_figures()."""
 
-    def __init__(self, layout: FieldReference, config: TrackerConfig, stats: TrackerStats,
-                 figures: Optional[FigureGeometry] = None):
-        """layout: the markers file's tags, or the field's corners in the image (a camera that does not move)."""
-        self.layout, self.config, self.stats, self.figures = layout, config, stats, figures
-        self.table = TableGeometry.of(config.params_file)
-        self.rods = rod_geometry(config.params_file)
-        walls = load_params(config.params_file)["field"]
+    def __init__(self, layout: FieldReference, params_file: Optional[str], intrinsics: Optional[Intrinsics],
+                 fovy_hint: float, stats: TagFitStats, figures: Optional[FigureGeometry] = None):
+        """layout: the markers file's tags, or the field's corners in the image (a camera that does not move);
+        params_file, intrinsics, fovy_hint: as in tracker.TrackerConfig; stats: counted into by refit()."""
+        self.layout, self.stats, self.figures = layout, stats, figures
+        self.intrinsics, self.fovy_hint = intrinsics, fovy_hint
+        self.table = TableGeometry.of(params_file)
+        self.rods = rod_geometry(params_file)
+        walls = load_params(params_file)["field"]
         self._wall = (float(walls["wall_height"]), float(walls["wall_thickness"]))  # the walls' top edges, corner_refine
-        self.lens = Lens(config.intrinsics)
+        self.lens = Lens(intrinsics)
         self.corners: Optional[FieldCorners] = layout if isinstance(layout, FieldCorners) else None
         self.tags = TagLocator(layout, self.lens) if self.corners is None else None
         self._corner_mapping: Optional[tuple[tuple[int, int], PlaneMapping]] = None  # (image size, its fit)
@@ -114,7 +125,7 @@ class FieldView:
         size = (bgr.shape[1], bgr.shape[0])
         if self._corner_mapping is None or self._corner_mapping[0] != size:
             self.corners.check_in_image(*size)
-            t, intrinsics, hint = self.table, self.config.intrinsics, self.config.fovy_hint
+            t, intrinsics, hint = self.table, self.intrinsics, self.fovy_hint
             given = self.lens.undistort(self.corners.pixels)
             camera = corner_camera_matrix(given, t.half_width, t.half_length, size, intrinsics, hint)
             focal_known = intrinsics is not None or corner_focal(given, t.half_width, t.half_length, size) is not None
@@ -136,15 +147,15 @@ class FieldView:
         if corners:
             self.last_tag_corners = corners
         try:
-            mapping = fit_mapping(centres, self.layout, (bgr.shape[1], bgr.shape[0]), self.config.intrinsics,
-                                  self.config.fovy_hint)
+            mapping = fit_mapping(centres, self.layout, (bgr.shape[1], bgr.shape[0]), self.intrinsics,
+                                  self.fovy_hint)
         except MarkersError as error:
             self.last_fit_error = str(error)
             return None
         if mapping.residual_m > MAX_TAG_RESIDUAL:
             self.stats.rejected_fits += 1
             # A lens that bends straight lines (a fisheye above all) does this too when it is not undistorted.
-            lens_hint = "" if self.config.intrinsics is not None else ", or the lens needs --intrinsics"
+            lens_hint = "" if self.intrinsics is not None else ", or the lens needs --intrinsics"
             self.last_fit_error = (f"the tags seen are {mapping.residual_m * 1000:.0f} mm (RMS) away from where the "
                                    f"markers file puts them: the file does not describe this table{lens_hint}")
             return None
@@ -199,8 +210,8 @@ class FieldView:
         pixels = self.lens.distort(self.mapping.to_image(np.array(dense)))
         region = np.zeros((height, width), np.uint8)
         cv2.fillPoly(region, [np.round(pixels).astype(np.int32)], 255)
-        k = self.config.intrinsics.camera_matrix if self.config.intrinsics is not None else self._corner_camera
-        projection = projection_from_mapping(self.mapping, (width, height), k, self.config.fovy_hint)
+        k = self.intrinsics.camera_matrix if self.intrinsics is not None else self._corner_camera
+        projection = projection_from_mapping(self.mapping, (width, height), k, self.fovy_hint)
         self.region = region
         self._make_radius_grid(width, height)
         ys, xs = np.nonzero(region)

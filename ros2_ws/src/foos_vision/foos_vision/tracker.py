@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Optional, Union
 
 import numpy as np
@@ -31,7 +31,7 @@ from .candidate_rules import (
 )
 from .detector import BALL_COLOR_NAMES, BallDetector, Candidate, ColourModel, colour_model, learn_colour
 from .field_corners import FieldReference
-from .field_view import FieldView
+from .field_view import FieldView, TagFitStats
 from .figure_mask import FigureGeometry
 from .geometry import Lens, PlaneMapping
 from .velocity import ConstantVelocityKalman
@@ -69,14 +69,10 @@ class Detection:
 
 
 @dataclass
-class TrackerStats:
+class TrackerStats(TagFitStats):  # the tag fits' counts (field_view), and the tracker's:
     frames: int = 0
     frames_with_mapping: int = 0
     detections: int = 0
-    tag_fits: int = 0
-    tags_seen: set = field(default_factory=set)
-    rejected_fits: int = 0
-    dropped_tags: dict = field(default_factory=dict)  # id -> worst disagreement (m) when left out of a fit
     masked_frames: int = 0  # frames searched with the figure mask (joint positions known)
 
 
@@ -92,7 +88,8 @@ class BallTracker:
         if not isinstance(given, ColourModel) and given != "auto" and given not in BALL_COLOR_NAMES:
             raise ValueError(f"unknown ball colour `{given}` (auto, {', '.join(BALL_COLOR_NAMES)})")
         self.stats = TrackerStats()
-        self.view = FieldView(layout, self.config, self.stats, figures)
+        self.view = FieldView(layout, self.config.params_file, self.config.intrinsics, self.config.fovy_hint,
+                              self.stats, figures)
         self.kalman = ConstantVelocityKalman(measurement_std=self.config.measurement_std)
         start = given if isinstance(given, ColourModel) else colour_model("white" if given == "auto" else given)
         self.search = BallSearch(self.view, BallDetector(start))
