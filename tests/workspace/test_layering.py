@@ -78,3 +78,80 @@ def test_no_source_file_is_over_700_lines():
     files += list((ROOT / "tests").rglob("*.py")) + [p for p in (ROOT / "scripts").iterdir() if p.is_file()]
     long = [f"{p.relative_to(ROOT)}: {n}" for p in files if (n := len(p.read_text().splitlines())) > MAX_LINES]
     assert not long, f"source files over {MAX_LINES} lines:\n" + "\n".join(long)
+
+
+def module_name(package: str, path: Path) -> str:
+    """The module's dotted name inside its package: '' for the package's __init__, 'camera.live' in a subpackage."""
+    parts = list(path.relative_to(SRC / package / package).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def intra_package_imports(package: str) -> dict[str, dict[str, int]]:
+    """module -> {module of the same package it imports: line}, with imports at any depth (in functions, under
+    `if TYPE_CHECKING:`), relative or absolute."""
+    paths = {module_name(package, path): path for path in python_files(package)}
+    graph: dict[str, dict[str, int]] = {name: {} for name in paths}
+    for name, path in paths.items():
+        own_package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+        own_package = [p for p in own_package if p]
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ImportFrom) and node.level:
+                base = own_package[: len(own_package) - (node.level - 1)]
+                target = base + (node.module.split(".") if node.module else [])
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == package:
+                target = node.module.split(".")[1:]
+            elif isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name.split(".")[0] == package and ".".join(alias.name.split(".")[1:]) in paths:
+                        graph[name].setdefault(".".join(alias.name.split(".")[1:]), node.lineno)
+                continue
+            else:
+                continue
+            names = [alias.name for alias in node.names]
+            submodules = [".".join(target + [n]) for n in names if ".".join(target + [n]) in paths]
+            for imported in submodules or [".".join(target)]:
+                if imported in paths and imported != name:
+                    graph[name].setdefault(imported, node.lineno)
+    return graph
+
+
+def import_cycles(graph: dict[str, dict[str, int]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each in a stable order."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    cycles = []
+
+    def visit(node: str):
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        for nxt in sorted(graph[node]):
+            if nxt not in index:
+                visit(nxt)
+                low[node] = min(low[node], low[nxt])
+            elif nxt in stack:
+                low[node] = min(low[node], index[nxt])
+        if low[node] == index[node]:
+            component = []
+            while not component or component[-1] != node:
+                component.append(stack.pop())
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return cycles
+
+
+@pytest.mark.parametrize("package", LAYERS)
+def test_no_circle_of_imports_inside_a_package(package):
+    graph = intra_package_imports(package)
+    cycles = import_cycles(graph)
+    described = [", ".join(f"{m} (imports {sorted(set(graph[m]) & set(c))})" for m in c) for c in cycles]
+    assert not cycles, f"{package}: modules that import each other in a circle:\n" + "\n".join(described)
+
+
+def test_the_circle_check_sees_imports_at_any_depth():
+    graph = {"a": {"b": 1}, "b": {"c": 2}, "c": {"a": 3}, "d": {"a": 4}}
+    assert import_cycles(graph) == [["a", "b", "c"]] and import_cycles({"a": {"b": 1}, "b": {}}) == []
