@@ -27,6 +27,8 @@ import numpy as np
 
 from foos_core.names import AXES, COMMAND_SIZE, JOINT_NAMES, RODS, TEAMS
 
+from . import scurve
+
 DRIVE_EFFECT_NAMES = ("rod_latency", "rod_speed_limit", "rod_acceleration_limit")
 MAX_DELAY = 1.0  # s: a dead time longer than this is a broken drive, not a parameter
 _SELECTORS = {"team": TEAMS, "rod": RODS, "axis": AXES}
@@ -252,6 +254,8 @@ def predict_positions(
     horizons: Sequence[float] = (0.1, 0.25),
     travel: Optional[np.ndarray] = None,
     dt: float = 0.002,
+    profile: Optional[tuple[np.ndarray, np.ndarray]] = None,
+    acceleration: Optional[np.ndarray] = None,
 ) -> np.ndarray:
     """Where D drives of one team are `horizons` after each of n starts: (n, H, D).
 
@@ -260,6 +264,11 @@ def predict_positions(
     inf for rotations). The shaped target (dead time, speed limit, rate limit) is integrated at dt and
     followed by the servo as the fast physics steps it: implicit in the gain, clipped at the force limit.
     The rate limiter starts from the measured velocity (a servo follows its target within milliseconds).
+
+    On the jerk-limited drives `profile` holds their generators' (acceleration limit, jerk limit) (D,) and
+    `acceleration` (n, D) the setpoints' acceleration at t0: each drive then follows its S-curve
+    (foos_sim.scurve) towards the shaped command, at the lower of its own and the effect's acceleration limit,
+    exactly within each step, and the rod moves with it (foos_sim.drive_profiles).
     """
     t0 = np.asarray(t0, dtype=float)
     p = np.array(position, dtype=float)
@@ -278,6 +287,9 @@ def predict_positions(
     steps = [int(round(h / dt)) for h in horizons]
     out = np.full((len(t0), len(steps), p.shape[1]), np.nan)
     columns = np.arange(p.shape[1])
+    if profile is not None:
+        profile_accel = np.minimum(limits.acceleration, profile[0])
+        a = np.zeros_like(v) if acceleration is None else np.array(acceleration, dtype=float)
     for k in range(max(steps) + 1):
         if k in steps:
             out[:, steps.index(k)] = p
@@ -288,10 +300,14 @@ def predict_positions(
         index = np.searchsorted(command_t, seen.ravel(), side="right").reshape(seen.shape) - 1
         goal = np.where(index >= 0, commands[np.maximum(index, 0), columns[None, :]], 0.0)
         goal = np.clip(goal, -speed, speed)
-        y = y + np.clip(goal - y, -accel_step, accel_step)
-        error = y - v
-        v = v + np.where(np.abs(error) > clipped_above, np.sign(error) * force_step, implicit * error)
-        p = p + v * dt
+        if profile is not None:
+            v, a, moved = scurve.advance(v, a, goal, profile_accel, profile[1], dt)
+            p = p + moved
+        else:
+            y = y + np.clip(goal - y, -accel_step, accel_step)
+            error = y - v
+            v = v + np.where(np.abs(error) > clipped_above, np.sign(error) * force_step, implicit * error)
+            p = p + v * dt
         at_stop = np.abs(p) > stop
         if at_stop.any():
             p = np.clip(p, -stop, stop)

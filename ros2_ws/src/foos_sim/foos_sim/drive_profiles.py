@@ -111,6 +111,13 @@ class ProfileDrives:
             self._held = False
         self.next_due = self.history.next_due(time)
 
+    def sub_targets(self, time: float, h: float, n: int) -> np.ndarray:
+        """(n, 16) servo targets for n sub-steps of h from `time` (one evaluation, apart from targets()' block)."""
+        if time >= self.next_due - _TIME_EPS:
+            self._update(time)
+        offsets = (np.arange(n) + 0.5)[:, None] * h
+        return scurve.evaluate(self.plan, time - self.plan_time + offsets + self.lead)[0]
+
     def targets(self, time: float, h: float) -> Optional[np.ndarray]:
         if time >= self.next_due - _TIME_EPS:
             self._update(time)

@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 UNLIMITED = 1e9  # N or N m: a force range MuJoCo never reaches
+STOP_ZONE = 0.001  # m short of a travel stop from which a slide driven toward it is left to its servo
 
 
 class ImplicitForceLimits:
@@ -114,8 +115,14 @@ class FollowingDrives:
         full = np.zeros((model.nv, model.nv))
         mujoco.mj_fullM(model, data, full)
         self._inertia = full[self._dofs, self._dofs]
-        self._ctrl, self._qvel = data.ctrl, data.qvel
+        self._ctrl, self._qvel, self._qpos = data.ctrl, data.qvel, data.qpos
         self._moved_force = np.zeros(model.nu)  # what starting at the target took, for efforts()
+        # The drives with a travel stop (the slides): one driven into its stop pushes at its force limit only.
+        joints = model.actuator_trnid[:, 0]
+        self._stopped = np.flatnonzero(model.jnt_limited[joints].astype(bool))
+        self._stop_qpos = model.jnt_qposadr[joints[self._stopped]]
+        self._stop_low = model.jnt_range[joints[self._stopped], 0] + STOP_ZONE
+        self._stop_high = model.jnt_range[joints[self._stopped], 1] - STOP_ZONE
         self._quiet = False
         self.timestep = 0.0
         self.set_timestep(float(model.opt.timestep))
@@ -144,6 +151,9 @@ class FollowingDrives:
             return
         change = self._ctrl - self._qvel[self._dofs]
         within = np.abs(change) <= self._reach
+        position, target = self._qpos[self._stop_qpos], self._ctrl[self._stopped]
+        # Started at a target into its stop, a slide went 9 mm into MuJoCo's soft stop (5 mm with its force).
+        within[self._stopped] &= ~(((position > self._stop_high) & (target > 0.0)) | ((position < self._stop_low) & (target < 0.0)))
         dofs = self._dofs[within]
         self._qvel[dofs] = self._ctrl[within]
         np.multiply(change, self._inertia / self.timestep, out=self._moved_force)

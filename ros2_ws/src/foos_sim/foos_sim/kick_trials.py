@@ -31,6 +31,7 @@ FIGURE_OVERLAP = 0.006
 KINDS = ("block", "kick", "spin")
 KIND_SHARES = (0.25, 0.4, 0.35)
 PARKED = (0.3, 0.58)
+OUT_OF_REACH = 0.1  # m from a rod's line: beyond its figures' reach (0.077 m) and the ball's radius
 
 
 @dataclass(frozen=True)
@@ -115,7 +116,11 @@ def _side_of_feet(sim: TableSimulation, rod: str, rotate: int, slide: int) -> Op
     depth = float(rods["axis_height"]) - z  # of the ball's centre below the rod's axis
     if depth <= 0.0 or (float(rods["axis_height"]) - float(figure["foot_clearance"])) * math.cos(angle) < depth + 0.003:
         return None
-    reach = float(sim.params["figure"]["foot_size"][0]) / 2 + sim.ball_radius
+    # Across the table: a foot's half width, or the body's where the figure meets the ball's height above the foot.
+    along = depth / math.cos(angle)  # from the axis to the figure's point at the ball's height
+    foot_top = float(rods["axis_height"]) - float(figure["foot_clearance"]) - float(figure["foot_size"][2])
+    width = figure["foot_size"][0] if along >= foot_top else figure["body_size"][0]
+    reach = float(width) / 2 + sim.ball_radius
     n = int(layout["figures"])
     centres = (np.arange(n) - (n - 1) / 2) * float(layout["spacing"]) + float(sim.joint_positions()[slide])
     if not np.any(np.abs(x - centres) < reach - 0.002):
@@ -156,10 +161,17 @@ def random_trial(sim: TableSimulation, rng: np.random.Generator) -> TrialResult:
             command[slide % COMMAND_SIZE] = rng.uniform(-1, 1) * sim.command_limits[slide % COMMAND_SIZE]
         sim.set_command(other, command)
     if kind == "spin":
+        # The ball comes to the spinning rod from beyond its figures' reach (teleported next to a foot turning at
+        # 24 m/s it would be inside it a step later).
         sim.advance(rng.uniform(0.05, 0.3))
-        sim.place_ball((x, y), velocity)
-    if not sim.ball_is_clear(1e-3):
-        sim.place_ball((x, float(layout["y"]) - forward * 0.06), velocity)
+        side = rng.choice((-1.0, 1.0))
+        if abs(float(layout["y"]) + side * (OUT_OF_REACH + 0.02)) > sim.half_length - sim.ball_radius:
+            side = -side  # a goalie's: from the field's side
+        vy = -side * abs(velocity[1]) if abs(velocity[1]) > 0.5 else -side * 0.5
+        sim.place_ball((x, float(layout["y"]) + side * rng.uniform(OUT_OF_REACH, OUT_OF_REACH + 0.02)), (velocity[0], vy))
+    elif not sim.ball_is_clear(1e-3):
+        toward_centre = -math.copysign(1.0, float(layout["y"]))
+        sim.place_ball((x, float(layout["y"]) + toward_centre * OUT_OF_REACH), velocity)  # clear of the rod's figures
     deepest, fastest, on_table, passed = 0.0, 0.0, True, False
     limit = np.array([sim.half_width, sim.half_length]) + 0.002
     geoms = _figure_geoms(sim, name)

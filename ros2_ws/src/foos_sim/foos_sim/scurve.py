@@ -95,3 +95,21 @@ def evaluate(profile: Profile, elapsed) -> tuple[np.ndarray, np.ndarray, np.ndar
     v = np.where(done, profile.target, v)
     a = np.where(done, 0.0, a)
     return v, a, d
+
+
+def advance(v0, a0, target, accel, jerk, elapsed) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(velocity, acceleration, distance) `elapsed` after (v0, a0), heading for `target` (plan, then evaluate)."""
+    return evaluate(plan(v0, a0, target, accel, jerk), elapsed)
+
+
+def follow(event_t: np.ndarray, goals: np.ndarray, accel, jerk) -> tuple[np.ndarray, np.ndarray]:
+    """The S-curve's (velocity, acceleration) at each event (K, L), for goals (K, L) that each hold from their
+    event to the next, starting from rest before the first (a recurrence over the events only)."""
+    v = np.zeros(goals.shape[1])
+    a = np.zeros(goals.shape[1])
+    v_out, a_out = np.empty_like(goals), np.empty_like(goals)
+    gaps = np.diff(event_t, append=event_t[-1])
+    for k in range(len(event_t)):
+        v_out[k], a_out[k] = v, a
+        v, a, _ = advance(v, a, goals[k], accel, jerk, gaps[k])
+    return v_out, a_out
