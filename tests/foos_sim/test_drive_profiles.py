@@ -8,6 +8,7 @@ import pytest
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES
 from foos_core.table_params import DEFAULT_PARAMS_FILE, SERVO_PARAMS_FILE, ParamsError, load_params
 from foos_sim import scurve
+from foos_sim.drive_limits import Servo, predict_positions
 from foos_sim.drive_profiles import profile_limits
 from foos_sim.simulation import TableSimulation
 
@@ -129,3 +130,40 @@ def test_the_former_servos_are_selectable_as_a_parameter_file():
     sim.set_command("home", command)
     sim.advance(0.01)
     assert sim.joint_velocities()[ATTACK_ROTATE] == pytest.approx(40.0, abs=0.5)
+
+
+def test_the_predictor_follows_the_s_curve_drives():
+    """drive_limits.predict_positions with the generators' limits (what calibration's rod fit predicts with)
+    against the fast physics: random commands with the effects above, starts where a new command arrives after
+    the last one has settled (setpoint acceleration 0), positions 0.1 and 0.2 s ahead away from the stops."""
+
+    params = load_params()
+    sim = TableSimulation(params={**params, "effects": EFFECTS})
+    sim.reset(ball_position=(0.3, 0.58))
+    rng = np.random.default_rng(4)
+    limits, servo, profiles = sim.drive_limits(), sim.drive_servo(), sim.drive_profiles()
+    home = slice(0, COMMAND_SIZE)
+    travel = np.array([0.12, np.inf, 0.19, np.inf, 0.08, np.inf, 0.135, np.inf])
+    scale = np.array([0.3, 0.15] * 4)  # slides mostly clear of their stops, rotations up to 47 rad/s
+    command_t, commands, states = [], [], []
+    for k in range(500):
+        if k % 10 == 0:
+            current = rng.uniform(-1, 1, COMMAND_SIZE) * sim.command_limits * scale
+        command_t.append(sim.time)
+        commands.append(current.copy())
+        sim.set_command("home", current)
+        states.append((sim.time, sim.joint_positions()[home], sim.joint_velocities()[home]))
+        sim.advance(0.02)
+    t = np.array([s[0] for s in states])
+    position = np.array([s[1] for s in states])
+    velocity = np.array([s[2] for s in states])
+    starts = np.arange(10, 480, 10)
+    predicted = predict_positions(t[starts], position[starts], velocity[starts], np.array(command_t), np.array(commands),
+                                  limits.team("home"), Servo(servo.inertia[home], servo.gain[home], servo.force_limit[home]),
+                                  sim.command_limits, (0.1, 0.2), travel,
+                                  profile=(profiles.acceleration[home], profiles.jerk[home]))
+    for h, steps in enumerate((5, 10)):
+        error = np.abs(predicted[:, h] - position[starts + steps])
+        free = np.all([np.abs(position[starts + k][:, 0::2]) < travel[0::2] - 0.015 for k in range(steps + 1)], axis=0)
+        assert free.sum() > 50
+        assert np.percentile(error[:, 0::2][free], 95) < 0.001 and np.percentile(error[:, 1::2], 95) < 0.01, (h, error.max(axis=0))

@@ -18,6 +18,7 @@ PARAMS_DIR = Path(__file__).resolve().parent / "params"
 DEFAULT_PARAMS_FILE = PARAMS_DIR / "regulation_table.yaml"
 REFERENCE_PARAMS_FILE = PARAMS_DIR / "reference_table.yaml"  # the regulation table on the 20 kHz reference physics
 SERVO_PARAMS_FILE = PARAMS_DIR / "servo_table.yaml"  # the regulation table with the former 40 rad/s velocity servos
+SERVO_REFERENCE_PARAMS_FILE = PARAMS_DIR / "servo_reference_table.yaml"  # the same on the 20 kHz reference physics
 DRIVE_KINDS = ("jerk_limited", "servo")
 
 
