@@ -1,12 +1,13 @@
-"""The drive effects: parsed from the parameter file, applied by TableSimulation on both physics, and the
-cheap predictor calibration uses agreeing with the fast physics."""
+"""The drive effects: parsed from the parameter file, applied by TableSimulation on both physics to the former
+velocity servos (params/servo_table.yaml; on the jerk-limited drives: test_drive_profiles.py), and the cheap
+predictor calibration uses agreeing with the fast physics."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES
-from foos_core.table_params import DEFAULT_PARAMS_FILE, load_params
+from foos_core.table_params import SERVO_PARAMS_FILE, load_params
 from foos_sim.drive_limits import DriveLimits, Servo, drive_limits_from_effects, predict_positions
 from foos_sim.effects import EffectError, resolve
 from foos_sim.simulation import TableSimulation
@@ -26,7 +27,7 @@ STOP_ZONE = 0.015  # m
 
 
 def table(effects, physics="fast"):
-    params = load_params(DEFAULT_PARAMS_FILE)
+    params = load_params(SERVO_PARAMS_FILE)
     return TableSimulation(params={**params, "effects": effects}, physics=physics)
 
 

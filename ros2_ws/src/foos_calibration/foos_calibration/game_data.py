@@ -123,4 +123,4 @@ def drive_model(params: dict) -> DriveModel:
     layout = params["rods"]["layout"]
     travel = np.array([float(layout[name.rsplit("_", 1)[0]]["travel"]) if name.endswith("_slide") else np.inf
                        for name in JOINT_NAMES])
-    return DriveModel(sim.drive_servo(), np.tile(sim.command_limits, len(TEAMS)), travel, FIT_TIMESTEP)
+    return DriveModel(sim.drive_servo(), np.tile(sim.command_limits, len(TEAMS)), travel, FIT_TIMESTEP, sim.drive_profiles())

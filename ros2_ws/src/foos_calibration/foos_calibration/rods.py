@@ -7,8 +7,12 @@ limit; the nominal servo then follows with its own acceleration limit (force / i
     v(t) = y(t - delay - lag),  y: the commands clipped to the speed limit, rate-limited at
                                    min(acceleration limit, force / inertia)
 
+On the jerk-limited drives (the default, foos_sim.drive_profiles) y is the drives' own S-curve instead, at
+min(acceleration limit, the drive's) and its jerk limit; the lag is half a fast physics step (DriveModel.lag).
+
 y is exact for commands that hold between arrivals (a recurrence over the command times only), so a
-model costs one pass over the commands, and every candidate value is a lane of the same arrays.
+model costs one pass over the commands, and every candidate value is a lane of the same arrays (lanes with
+the same commands and limits share one recurrence).
 
 Selection, per drive (each of the 16 is fitted alone; drives do not interact): every subset of the three
 components is fitted by coordinate descent over grids on all samples and on each of two folds (stretches
@@ -34,7 +38,9 @@ from typing import Callable
 import numpy as np
 
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES, TEAMS
+from foos_sim import scurve
 from foos_sim.drive_limits import DriveLimits, Servo, drive_limits_from_effects, predict_positions
+from foos_sim.drive_profiles import ProfileLimits
 
 COMPONENTS = ("latency", "speed", "acceleration")
 EFFECT_OF = {"latency": "rod_latency", "speed": "rod_speed_limit", "acceleration": "rod_acceleration_limit"}
@@ -52,6 +58,10 @@ START_SPACING = 0.2  # s between prediction starts
 # Coarse grids, each refined around its best value (REFINE points spanning one coarse step either side).
 DELAY_GRID = np.arange(0.0, 0.1505, 0.006)  # s
 SPEED_GRID = np.geomspace(0.2, 1.0, 12)  # shares of the drive's command limit (1: no limit)
+# The jerk-limited drives' rotation limit is 314 rad/s, 8x the former servos' 40: the same step, from 0.02 (12
+# points from 0.02, a coarser step, fitted a hidden 1.6 m/s slide limit 2.3 % low and named acceleration limits
+# on four slides to make up for it).
+PROFILE_SPEED_GRID = np.geomspace(0.02, 1.0, 28)
 ACCEL_GRID = np.geomspace(0.01, 1.0, 16)  # shares of the servo's own acceleration (1: no limit)
 REFINE = 9
 SAMPLE_EVERY = 2  # joint states used for the fit: every second one (125 Hz of a 250 Hz encoder is plenty)
@@ -80,14 +90,26 @@ class DriveModel:
     command_limits: np.ndarray  # (16,)
     travel: np.ndarray  # (16,) slide stops +/-, inf for rotations
     timestep: float  # the physics step the servo's implicit update is taken at
+    profiles: ProfileLimits | None = None  # the jerk-limited drives' generators; None: servos on the command
 
     @property
     def servo_accel(self) -> np.ndarray:
+        """The drive's own acceleration limit: its generator's, or its servo's (force / inertia)."""
+        if self.profiles is not None:
+            return self.profiles.acceleration
         return self.servo.force_limit / self.servo.inertia
 
     @property
     def lag(self) -> np.ndarray:
+        if self.profiles is not None:
+            # The rods follow their generators' setpoints; the fast physics moves a step at the setpoint of its
+            # middle (foos_sim.drives.FollowingDrives), so its joint velocities trail the setpoint by half a step.
+            return np.full(len(JOINT_NAMES), self.timestep / 2)
         return self.servo.inertia / self.servo.gain
+
+    @property
+    def jerk(self) -> np.ndarray | None:
+        return None if self.profiles is None else self.profiles.jerk
 
 
 @dataclass
@@ -110,9 +132,59 @@ def _recur(event_t: np.ndarray, goals: np.ndarray, accel: np.ndarray) -> np.ndar
     return out
 
 
-def shaped_velocity(event_t, commands, sample_t, delay, speed, accel, lag) -> np.ndarray:
-    """(L, N): the model's velocity at sample_t for L lanes (commands (K, L); delay, speed, accel, lag (L,))."""
+class _Recurrences:
+    """The S-curves' states at the events of lanes already followed (a fit asks for the same lanes again: a
+    component held while another is swept, the same candidates in the next sweep and subset), by lane key."""
+
+    def __init__(self):
+        self.events = None
+        self.states: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+    def follow(self, event_t, keys, goals, accel, jerk) -> tuple[np.ndarray, np.ndarray]:
+        if self.events is None or len(self.events) != len(event_t) or not np.array_equal(self.events, event_t):
+            self.events, self.states = event_t.copy(), {}
+        rows = [tuple(k) for k in keys.tolist()]
+        missing = [i for i, row in enumerate(rows) if row not in self.states]
+        if missing:
+            v, a = scurve.follow(event_t, goals[:, missing], accel[missing], jerk[missing])
+            for j, i in enumerate(missing):
+                self.states[rows[i]] = (v[:, j], a[:, j])
+        return (np.stack([self.states[row][0] for row in rows], axis=1),
+                np.stack([self.states[row][1] for row in rows], axis=1))
+
+
+_RECURRENCES = _Recurrences()
+
+
+def _s_curve_velocity(event_t, goals, sample_t, delay, accel, jerk, acceleration=False):
+    """shaped_velocity on the jerk-limited drives: each lane's S-curve (foos_sim.scurve) through its goals."""
+    # Lanes with the same goals and limits (candidates of a latency, which only shifts the samples) share one
+    # recurrence over the events: the goals compared through a fixed random projection.
+    signature = np.random.default_rng(0).standard_normal(len(goals)) @ goals
+    keys = np.stack([signature, np.broadcast_to(accel, signature.shape), np.broadcast_to(jerk, signature.shape)], axis=1)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    unique_goals = goals[:, first]
+    v_event, a_event = _RECURRENCES.follow(event_t, keys[first], unique_goals, np.broadcast_to(accel, signature.shape)[first],
+                                           np.broadcast_to(jerk, signature.shape)[first])
+    shifted = sample_t[None, :] - delay[:, None]
+    k = np.searchsorted(event_t, shifted, side="right") - 1
+    valid = k >= 0
+    k = np.maximum(k, 0)
+    lanes = inverse[:, None]
+    elapsed = np.maximum(shifted - event_t[k], 0.0)
+    v, a, _ = scurve.advance(v_event[k, lanes], a_event[k, lanes], unique_goals[k, lanes],
+                             np.broadcast_to(accel, signature.shape)[:, None], np.broadcast_to(jerk, signature.shape)[:, None], elapsed)
+    return (v * valid, a * valid) if acceleration else v * valid
+
+
+def shaped_velocity(event_t, commands, sample_t, delay, speed, accel, lag, jerk=None, acceleration=False):
+    """(L, N): the model's velocity at sample_t for L lanes (commands (K, L); delay, speed, accel, lag, jerk (L,);
+    jerk None: the servos' rate limiter, else the jerk-limited drives' S-curves, and with `acceleration` their
+    setpoints' acceleration too)."""
     goals = np.clip(commands, -speed, speed)
+    if jerk is not None:
+        return _s_curve_velocity(event_t, goals, sample_t, np.asarray(delay + lag, dtype=float), accel, jerk, acceleration)
     y = _recur(event_t, goals, accel)
     shifted = sample_t[None, :] - (delay + lag)[:, None]
     k = np.searchsorted(event_t, shifted, side="right") - 1
@@ -146,6 +218,7 @@ class _Team:
     servo_accel: np.ndarray
     lag: np.ndarray
     asked: np.ndarray  # (8,) the highest |command| sent
+    jerk: np.ndarray | None = None  # (8,) the jerk-limited drives'; None: servos on the command
 
 
 def _values(params: dict, team: _Team, lanes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -156,7 +229,8 @@ def _values(params: dict, team: _Team, lanes: np.ndarray) -> tuple[np.ndarray, n
 def _rss(team: _Team, drives: np.ndarray, params: dict) -> np.ndarray:
     """(L, 3) squared velocity error over all samples, fold 0 and fold 1, for lanes of (drive, parameter)."""
     delay, speed, accel = _values(params, team, drives)
-    v = shaped_velocity(team.event_t, team.commands[:, drives], team.t, delay, speed, accel, team.lag[drives])
+    v = shaped_velocity(team.event_t, team.commands[:, drives], team.t, delay, speed, accel, team.lag[drives],
+                        None if team.jerk is None else team.jerk[drives])
     r2 = (v - team.measured[drives]) ** 2 * team.weight[drives]
     f1 = team.folds[None, :] == 1
     fold1 = np.where(f1, r2, 0.0).sum(axis=1)
@@ -165,6 +239,12 @@ def _rss(team: _Team, drives: np.ndarray, params: dict) -> np.ndarray:
 
 
 GRIDS = {"latency": DELAY_GRID, "speed": SPEED_GRID, "acceleration": ACCEL_GRID}
+
+
+def _grid(component: str, team: _Team) -> np.ndarray:
+    if component == "speed" and team.jerk is not None:
+        return PROFILE_SPEED_GRID
+    return GRIDS[component]
 ABSENT = {"latency": 0.0, "speed": 1.0, "acceleration": 1.0}
 
 
@@ -179,7 +259,7 @@ def _fit_subset(team: _Team, subset: tuple[str, ...], held: dict | None = None) 
         values[c] = np.broadcast_to(np.asarray(v, dtype=float), (n, 3)).copy()
     for sweep in range(2 if len(subset) > 1 else 1):
         for c in subset:
-            coarse = GRIDS[c]
+            coarse = _grid(c, team)
             candidates = np.broadcast_to(coarse, (n, 3, len(coarse)))
             for _ in range(2):  # the coarse grid, then a fine one around each fit's best
                 g = candidates.shape[2]
@@ -189,18 +269,17 @@ def _fit_subset(team: _Team, subset: tuple[str, ...], held: dict | None = None) 
                 rss = _rss(team, drives, params).reshape(n, 3, g, 3)
                 own = rss[:, [0, 1, 2], :, [0, 1, 2]].transpose(1, 0, 2)  # each fit's own set: (8, 3, g)
                 values[c] = np.take_along_axis(candidates, np.argmin(own, axis=2)[..., None], axis=2)[..., 0]
-                candidates = _fine(c, values[c])
+                candidates = _fine(c, values[c], _grid(c, team))
     drives = np.repeat(np.arange(n), 3)
     rss = _rss(team, drives, {k: values[k].ravel() for k in COMPONENTS}).reshape(n, 3, 3)
     return rss, values
 
 
-def _fine(component: str, best: np.ndarray) -> np.ndarray:
+def _fine(component: str, best: np.ndarray, grid: np.ndarray) -> np.ndarray:
     """(8, 3, REFINE) candidates spanning one coarse grid step either side of each best value."""
     if component == "latency":
         step = DELAY_GRID[1] - DELAY_GRID[0]
         return np.maximum(best[..., None] + np.linspace(-step, step, REFINE), 0.0)
-    grid = GRIDS[component]
     ratio = grid[1] / grid[0]
     return np.minimum(best[..., None] * np.geomspace(1 / ratio, ratio, REFINE), 1.0)
 
@@ -398,20 +477,30 @@ def _teams(data: DriveData, model: DriveModel) -> list[_Team]:
         teams.append(_Team(
             event_t=data.command_t[team], commands=commands, t=data.t[every], measured=data.velocity[every, cols].T,
             weight=(~at_stop[every, cols]).T.astype(float), folds=folds[every], limit=model.command_limits[cols],
-            servo_accel=model.servo_accel[cols], lag=model.lag[cols], asked=np.abs(commands).max(axis=0)))
+            servo_accel=model.servo_accel[cols], lag=model.lag[cols], asked=np.abs(commands).max(axis=0),
+            jerk=None if model.jerk is None else model.jerk[cols]))
     return teams
 
 
-def model_velocity(data: DriveData, model: DriveModel, limits: DriveLimits, times: np.ndarray) -> np.ndarray:
-    """(len(times), 16): each drive's velocity under `limits`, from the commands alone."""
+def model_velocity(data: DriveData, model: DriveModel, limits: DriveLimits, times: np.ndarray,
+                   acceleration: bool = False):
+    """(len(times), 16): each drive's velocity under `limits`, from the commands alone; with `acceleration`, and
+    the jerk-limited drives' setpoint acceleration (zeros on servos)."""
     out = np.zeros((len(times), len(JOINT_NAMES)))
+    accel_out = np.zeros((len(times), len(JOINT_NAMES)))
     for i, team in enumerate(TEAMS):
         cols = np.arange(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
         commands = np.clip(data.commands[team], -model.command_limits[cols], model.command_limits[cols])
         speed = np.minimum(limits.speed[cols], model.command_limits[cols])
         accel = np.minimum(limits.acceleration[cols], model.servo_accel[cols])
-        out[:, cols] = shaped_velocity(data.command_t[team], commands, times, limits.delay[cols], speed, accel, model.lag[cols]).T
-    return out
+        jerk = None if model.jerk is None else model.jerk[cols]
+        shaped = shaped_velocity(data.command_t[team], commands, times, limits.delay[cols], speed, accel, model.lag[cols], jerk,
+                                 acceleration=jerk is not None)
+        if jerk is not None:
+            out[:, cols], accel_out[:, cols] = shaped[0].T, shaped[1].T
+        else:
+            out[:, cols] = shaped.T
+    return (out, accel_out) if acceleration else out
 
 
 def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[DriveLimits]) -> tuple[np.ndarray, np.ndarray]:
@@ -430,14 +519,17 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
         if rows.size == 0:
             continue
         limits = fold_limits[1 - k]
-        v0 = model_velocity(data, model, limits, t0[rows])
+        v0, a0 = model_velocity(data, model, limits, t0[rows], acceleration=True)
         p0 = np.stack([np.interp(t0[rows], data.t, data.position[:, j]) for j in range(len(JOINT_NAMES))], axis=1)
         for i, team in enumerate(TEAMS):
             cols = np.arange(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
             servo = Servo(model.servo.inertia[cols], model.servo.gain[cols], model.servo.force_limit[cols])
             predicted = predict_positions(t0[rows], p0[:, cols], v0[:, cols], data.command_t[team], data.commands[team],
                                           limits.team(team), servo, model.command_limits[cols], HORIZONS,
-                                          model.travel[cols], model.timestep)
+                                          model.travel[cols], model.timestep,
+                                          None if model.profiles is None
+                                          else (model.profiles.acceleration[cols], model.profiles.jerk[cols]),
+                                          a0[:, cols])
             for h, horizon in enumerate(HORIZONS):
                 truth = np.stack([np.interp(t0[rows] + horizon, data.t, data.position[:, j]) for j in cols], axis=1)
                 error = np.abs(predicted[:, h] - truth)
@@ -491,6 +583,7 @@ def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None]
              seed: int = 0) -> RodResult:
     """The drive effects the game supports, with evidence, and the report's `rods` block."""
     progress("fitting the rod drives (latency, speed and acceleration limits) per drive, on two folds")
+    _RECURRENCES.__init__()  # a new game's events
     teams = _teams(data, model)
     per_drive = []
     for team in teams:

@@ -17,6 +17,9 @@ from .yaml_files import read_mapping
 PARAMS_DIR = Path(__file__).resolve().parent / "params"
 DEFAULT_PARAMS_FILE = PARAMS_DIR / "regulation_table.yaml"
 REFERENCE_PARAMS_FILE = PARAMS_DIR / "reference_table.yaml"  # the regulation table on the 20 kHz reference physics
+SERVO_PARAMS_FILE = PARAMS_DIR / "servo_table.yaml"  # the regulation table with the former 40 rad/s velocity servos
+SERVO_REFERENCE_PARAMS_FILE = PARAMS_DIR / "servo_reference_table.yaml"  # the same on the 20 kHz reference physics
+DRIVE_KINDS = ("jerk_limited", "servo")
 
 
 class ParamsError(ValueError):
@@ -111,6 +114,13 @@ def validate(tree: dict, source: str = "parameters") -> None:
         reach = (rod["figures"] - 1) * rod["spacing"] / 2 + figure["foot_size"][0] / 2 + rod["travel"]
         if reach > field["width"] / 2 + 1e-9:
             raise ParamsError(f"{source}: rod `{name}` can push a figure into the side wall (reach {reach:.3f} m)")
+    drive = rods.get("drive", "servo")
+    if drive not in DRIVE_KINDS:
+        raise ParamsError(f"{source}: `rods.drive` must be one of {', '.join(DRIVE_KINDS)}, got {drive!r}")
+    if drive == "jerk_limited":
+        for axis in ("slide", "rotate"):
+            for kind in ("acceleration", "jerk"):
+                _positive(tree, f"rods.{axis}_{kind}_limit", source)
     effects = tree.get("effects", [])
     if not isinstance(effects, list):
         raise ParamsError(f"{source}: `effects` must be a list")

@@ -27,6 +27,8 @@ import numpy as np
 
 from foos_core.names import AXES, COMMAND_SIZE, JOINT_NAMES, RODS, TEAMS
 
+from . import scurve
+
 DRIVE_EFFECT_NAMES = ("rod_latency", "rod_speed_limit", "rod_acceleration_limit")
 MAX_DELAY = 1.0  # s: a dead time longer than this is a broken drive, not a parameter
 _SELECTORS = {"team": TEAMS, "rod": RODS, "axis": AXES}
@@ -124,8 +126,58 @@ def drive_limits_from_effects(effects: Optional[Iterable[dict]]) -> Optional[Dri
     return DriveLimits(values["delay"], values["speed"], values["acceleration"])
 
 
+class CommandHistory:
+    """The teams' received commands and, per drive, the one it acts on after its dead time.
+
+    receive() takes a team's (already validated and clipped) command at the simulation time it arrives;
+    delayed_commands(time) gives the 16 commands the drives act on then; next_due(time) when one of them
+    next changes.
+    """
+
+    def __init__(self, delay: np.ndarray):
+        self.delay = np.asarray(delay, dtype=float)
+        self.max_delay = float(self.delay.max())
+        self._team_delay = [self.delay[t * COMMAND_SIZE:(t + 1) * COMMAND_SIZE] for t in range(len(TEAMS))]
+        self._columns = np.arange(COMMAND_SIZE)
+        self.reset()
+
+    def reset(self) -> None:
+        # The teams' command histories: times (k,) and values (k, 8); the first entry is the zero command at reset.
+        self._times = [np.array([-np.inf]) for _ in TEAMS]
+        self._values = [np.zeros((1, COMMAND_SIZE)) for _ in TEAMS]
+
+    def receive(self, time: float, team: int, command: np.ndarray) -> None:
+        times, values = self._times[team], self._values[team]
+        if time <= times[-1]:  # a second command in the same instant replaces the first
+            values[-1] = command
+        else:
+            # Keep only what can still act: the last command older than every delay, and what came after.
+            keep = max(0, int(np.searchsorted(times, time - self.max_delay - _TIME_EPS, side="right")) - 1)
+            self._times[team] = np.append(times[keep:], time)
+            self._values[team] = np.vstack([values[keep:], command])
+
+    def delayed_commands(self, time: float) -> np.ndarray:
+        """The 16 commands each drive acts on at `time`: the last one it received `delay` earlier."""
+        out = np.empty(len(JOINT_NAMES))
+        for team in range(len(TEAMS)):
+            times = self._times[team]
+            index = np.searchsorted(times, time - self._team_delay[team] + _TIME_EPS, side="right") - 1
+            out[team * COMMAND_SIZE:(team + 1) * COMMAND_SIZE] = self._values[team][index, self._columns]
+        return out
+
+    def next_due(self, time: float) -> float:
+        """The first time after `time` at which a received command starts acting on a drive (inf: none)."""
+        due = np.inf
+        for team in range(len(TEAMS)):
+            arrivals = self._times[team][:, None] + self._team_delay[team][None, :]
+            later = arrivals[arrivals > time + _TIME_EPS]
+            if later.size:
+                due = min(due, float(later.min()))
+        return due
+
+
 class DriveShaper:
-    """The drives' dead time, speed and acceleration limits between set_command and the servo target.
+    """The servo drives' dead time, speed and acceleration limits between set_command and the servo target.
 
     receive() takes a team's (already validated and clipped) command at the simulation time it arrives;
     target(time, dt) returns the 16 servo targets for a physics step of dt starting at `time`. While no
@@ -138,14 +190,11 @@ class DriveShaper:
         self._accel = limits.acceleration
         self._limited = np.isfinite(self._accel)
         self._ramps = bool(self._limited.any())
-        # The teams' command histories: times (k,) and values (k, 8); the first entry is the zero command at reset.
-        self._team_delay = [limits.delay[t * COMMAND_SIZE:(t + 1) * COMMAND_SIZE] for t in range(len(TEAMS))]
-        self._columns = np.arange(COMMAND_SIZE)
+        self.history = CommandHistory(limits.delay)
         self.reset()
 
     def reset(self) -> None:
-        self._times = [np.array([-np.inf]) for _ in TEAMS]
-        self._values = [np.zeros((1, COMMAND_SIZE)) for _ in TEAMS]
+        self.history.reset()
         self.value = np.zeros(len(JOINT_NAMES))
         self._pending_until = -np.inf  # the last time a received command still has to take effect
         self.idle = True
@@ -154,26 +203,13 @@ class DriveShaper:
         self._ramping = False
 
     def receive(self, time: float, team: int, command: np.ndarray) -> None:
-        times, values = self._times[team], self._values[team]
-        if time <= times[-1]:  # a second command in the same instant replaces the first
-            values[-1] = command
-        else:
-            # Keep only what can still act: the last command older than every delay, and what came after.
-            keep = max(0, int(np.searchsorted(times, time - self.limits.max_delay - _TIME_EPS, side="right")) - 1)
-            self._times[team] = np.append(times[keep:], time)
-            self._values[team] = np.vstack([values[keep:], command])
+        self.history.receive(time, team, command)
         self._pending_until = max(self._pending_until, time + self.limits.max_delay)
         self.idle = False
         self.next_update = min(self.next_update, time + float(self.limits.delay.min()))
 
     def delayed_commands(self, time: float) -> np.ndarray:
-        """The 16 commands each drive acts on at `time`: the last one it received `delay` earlier."""
-        out = np.empty(len(JOINT_NAMES))
-        for team in range(len(TEAMS)):
-            times = self._times[team]
-            index = np.searchsorted(times, time - self._team_delay[team] + _TIME_EPS, side="right") - 1
-            out[team * COMMAND_SIZE:(team + 1) * COMMAND_SIZE] = self._values[team][index, self._columns]
-        return out
+        return self.history.delayed_commands(time)
 
     def target(self, time: float, dt: float) -> np.ndarray:
         """The servo targets for a step of `dt` from `time` (also kept in `value`)."""
@@ -193,12 +229,7 @@ class DriveShaper:
     def schedule(self, time: float, ramp_update: float) -> None:
         """After target(time): when the target next changes, a received command falling due or, while a target
         ramps, `ramp_update` later (for a physics that does not call target() every step)."""
-        due = np.inf
-        for team in range(len(TEAMS)):
-            arrivals = self._times[team][:, None] + self._team_delay[team][None, :]
-            later = arrivals[arrivals > time + _TIME_EPS]
-            if later.size:
-                due = min(due, float(later.min()))
+        due = self.history.next_due(time)
         self.next_update = min(due, time + ramp_update) if self._ramping else due
 
 
@@ -223,6 +254,8 @@ def predict_positions(
     horizons: Sequence[float] = (0.1, 0.25),
     travel: Optional[np.ndarray] = None,
     dt: float = 0.002,
+    profile: Optional[tuple[np.ndarray, np.ndarray]] = None,
+    acceleration: Optional[np.ndarray] = None,
 ) -> np.ndarray:
     """Where D drives of one team are `horizons` after each of n starts: (n, H, D).
 
@@ -231,6 +264,11 @@ def predict_positions(
     inf for rotations). The shaped target (dead time, speed limit, rate limit) is integrated at dt and
     followed by the servo as the fast physics steps it: implicit in the gain, clipped at the force limit.
     The rate limiter starts from the measured velocity (a servo follows its target within milliseconds).
+
+    On the jerk-limited drives `profile` holds their generators' (acceleration limit, jerk limit) (D,) and
+    `acceleration` (n, D) the setpoints' acceleration at t0: each drive then follows its S-curve
+    (foos_sim.scurve) towards the shaped command, at the lower of its own and the effect's acceleration limit,
+    exactly within each step, and the rod moves with it (foos_sim.drive_profiles).
     """
     t0 = np.asarray(t0, dtype=float)
     p = np.array(position, dtype=float)
@@ -249,6 +287,9 @@ def predict_positions(
     steps = [int(round(h / dt)) for h in horizons]
     out = np.full((len(t0), len(steps), p.shape[1]), np.nan)
     columns = np.arange(p.shape[1])
+    if profile is not None:
+        profile_accel = np.minimum(limits.acceleration, profile[0])
+        a = np.zeros_like(v) if acceleration is None else np.array(acceleration, dtype=float)
     for k in range(max(steps) + 1):
         if k in steps:
             out[:, steps.index(k)] = p
@@ -259,10 +300,14 @@ def predict_positions(
         index = np.searchsorted(command_t, seen.ravel(), side="right").reshape(seen.shape) - 1
         goal = np.where(index >= 0, commands[np.maximum(index, 0), columns[None, :]], 0.0)
         goal = np.clip(goal, -speed, speed)
-        y = y + np.clip(goal - y, -accel_step, accel_step)
-        error = y - v
-        v = v + np.where(np.abs(error) > clipped_above, np.sign(error) * force_step, implicit * error)
-        p = p + v * dt
+        if profile is not None:
+            v, a, moved = scurve.advance(v, a, goal, profile_accel, profile[1], dt)
+            p = p + moved
+        else:
+            y = y + np.clip(goal - y, -accel_step, accel_step)
+            error = y - v
+            v = v + np.where(np.abs(error) > clipped_above, np.sign(error) * force_step, implicit * error)
+            p = p + v * dt
         at_stop = np.abs(p) > stop
         if at_stop.any():
             p = np.clip(p, -stop, stop)

@@ -195,6 +195,16 @@ class ImpactSolver:
         vx, vy, vz = data.qvel[self.ball_qvel:self.ball_qvel + 3].tolist()
         self._set_gaps(math.sqrt(vx * vx + vy * vy + vz * vz))
 
+    def set_motion(self, data: mujoco.MjData, figure_speed: float, timestep: float) -> None:
+        """The next steps' length (a sub-step, for a fast figure near the ball) and the fastest a figure near
+        the ball moves in them; the gaps widen at once and narrow with the next refresh."""
+        if timestep != self.timestep or figure_speed > self.figure_speed_limit:
+            self.timestep = timestep
+            self.figure_speed_limit = figure_speed
+            self.update_gaps(data)
+        elif figure_speed < 0.6 * self.figure_speed_limit:
+            self.figure_speed_limit = figure_speed  # the gaps follow within GAP_REFRESH_STEPS
+
     def _set_gaps(self, speed: float) -> None:
         h, gaps = self.timestep, self._gaps
         wall_gap = 1.25 * speed * h + 0.001

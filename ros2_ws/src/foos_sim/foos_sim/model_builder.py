@@ -213,13 +213,15 @@ class TableModelBuilder:
         """s, how long a ball contact lasts on the reference: half a period of its spring."""
         return math.pi / self.frequency
 
+    def figure_reach(self) -> float:
+        """m, the farthest a figure's surface is from its rod's axis (a foot's lower edge)."""
+        fig, rods = self.params["figure"], self.params["rods"]
+        return max(math.hypot(rods["axis_height"] - fig["foot_clearance"], fig["foot_size"][1] / 2), fig["head_height"])
+
     def figure_speed_limit(self) -> float:
         """m/s, the fastest a figure's surface moves: full slide and rotation speed at the farthest point."""
         p = self.params
-        fig, rods = p["figure"], p["rods"]
-        foot_y = fig["foot_size"][1]
-        reach = max(math.hypot(rods["axis_height"] - fig["foot_clearance"], foot_y / 2), fig["head_height"])
-        return math.hypot(drive_speed_limit(p, "slide"), drive_speed_limit(p, "rotate") * reach)
+        return math.hypot(drive_speed_limit(p, "slide"), drive_speed_limit(p, "rotate") * self.figure_reach())
 
     def build(self) -> str:
         p = self.params

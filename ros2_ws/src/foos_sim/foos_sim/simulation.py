@@ -13,14 +13,23 @@ Two physics (foos_sim.model_builder.PHYSICS, `solver.physics` in the parameter f
 argument): `fast` (the default, 500 Hz, impacts resolved by foos_sim.impacts between MuJoCo's collision
 and its forces) and `reference` (the 20 kHz springs, stepped by mj_step alone).
 
-The drive effects of the parameter file (rod_latency, rod_speed_limit, rod_acceleration_limit) sit between
-set_command and the servos on both physics (foos_sim.drive_limits.DriveShaper): the fast physics updates
-the servo targets before every 2 ms step; the reference updates them at its chunk boundaries (0.25 ms),
-only when a delayed command falls due (within a chunk of its time) and every RAMP_UPDATE while a target
-ramps, not at each 0.05 ms step. Without drive effects nothing of this runs.
+The drives (`rods.drive` in the parameter file): `jerk_limited` (the default, a robot table's) follow each
+command on an S-curve within a speed, an acceleration and a jerk limit (foos_sim.drive_profiles), the servo
+targets set before every fast step (the setpoint at its middle, the rod started there: foos_sim.drives.
+FollowingDrives) and every reference chunk (0.25 ms, the setpoint the servo's time constant ahead); the drive
+effects act inside the generator. `servo` (params/servo_table.yaml, the former drives) are velocity servos on
+the command itself; there the drive effects (rod_latency, rod_speed_limit, rod_acceleration_limit) sit between
+set_command and the servos (foos_sim.drive_limits.DriveShaper): the fast physics updates the servo targets
+before every 2 ms step; the reference updates them at its chunk boundaries, only when a delayed command falls
+due (within a chunk of its time) and every RAMP_UPDATE while a target ramps. Without drive effects nothing of
+this runs on the servos.
+
+While a figure near the ball moves more than FIGURE_STEP in a fast step (a kick on the jerk-limited drives),
+that step is taken in sub-steps (_substeps); the impacts' look-ahead follows the figures near the ball.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from pathlib import Path
 from typing import Optional, Sequence
@@ -29,10 +38,12 @@ import mujoco
 import numpy as np
 
 from foos_core.names import (
+    AXES,
     BALL_BODY,
     BALL_JOINT,
     COMMAND_SIZE,
     JOINT_NAMES,
+    RODS,
     TEAMS,
     figure_team,
     team_joint_names,
@@ -40,7 +51,8 @@ from foos_core.names import (
 from foos_core.table_params import load_params
 
 from .drive_limits import DriveShaper, Servo, drive_limits_from_effects
-from .drives import ImplicitForceLimits
+from .drive_profiles import ProfileDrives, profile_limits
+from .drives import FollowingDrives, ImplicitForceLimits
 from .effects import DentSlopes
 from .impacts import ImpactSolver
 from .model_builder import build_model
@@ -56,6 +68,12 @@ FIGURE_SPEED_MARGIN = 1.2
 # On the reference physics a ramping drive target (an acceleration limit) is updated this often: a ramp held
 # 1 ms moves the target at most a_max * 1 ms (0.05 m/s at 50 m/s^2), well inside the servo's own lag.
 RAMP_UPDATE = 0.001
+# The fast physics' step is cut into sub-steps while a figure near the ball moves more than this in a step:
+# the impacts were checked at up to 40 rad/s (a foot's edge 6.2 mm a step); a kick from a 90-degree back-swing
+# on the jerk-limited drives reaches 75 rad/s, a full-speed one 314 rad/s (24 m/s at the foot's edge, 9 sub-steps).
+FIGURE_STEP = 0.003  # m
+NEAR_MARGIN = 0.01  # m beyond a figure's reach and the ball's radius (and its travel in a step): a rod near the ball
+LEAST_FIGURE_SPEED = 0.5  # m/s a figure near the ball is taken to move at least (look-ahead gaps, foos_sim.impacts)
 
 
 class CommandError(ValueError):
@@ -77,12 +95,15 @@ class TableSimulation:
                          float(self.params["field"]["cover_height"]))
             if builder.fast else None
         )
-        self._drives = ImplicitForceLimits(self.model, self.data) if builder.fast else None
+        self._drives = None
+        if builder.fast:
+            self._drives = (FollowingDrives if profile_limits(self.params) is not None else ImplicitForceLimits)(self.model, self.data)
         self._dent_slopes = (
             DentSlopes(builder.physics.dents, float(self.params["ball"]["mass"]), float(self.params["gravity"]),
                        float(self.params["ball"]["radius"]))
             if builder.fast and builder.physics.dents else None
         )
+        self._figure_reach = builder.figure_reach()
         field = self.params["field"]
         self.half_length = field["length"] / 2
         self.half_width = field["width"] / 2
@@ -103,9 +124,41 @@ class TableSimulation:
             team: np.array([self.model.actuator(name).id for name in team_joint_names(team)]) for team in TEAMS
         }
         self.command_limits = np.array([self.model.actuator(n).ctrlrange[1] for n in team_joint_names("home")])
-        drive_limits = drive_limits_from_effects(self.params.get("effects"))
-        self._shaper = DriveShaper(drive_limits, np.tile(self.command_limits, len(TEAMS))) if drive_limits else None
         self._all_ctrl = np.concatenate([self._team_ctrl[t] for t in TEAMS])
+        drive_limits = drive_limits_from_effects(self.params.get("effects"))
+        nominal_profiles = profile_limits(self.params)
+        # Jerk-limited drives (the default) plan every command through their generators, effects or not; the
+        # plain servos (params/servo_table.yaml) only shape commands when the file has drive effects.
+        self._profiles = None
+        if nominal_profiles is not None:
+            # On the reference the servos integrate at 20 kHz and lag their targets by inertia / gain (0.07-0.2 ms:
+            # 0.03 rad behind at 250 rad/s); fed the setpoint that much ahead they follow it. The fast physics
+            # starts each step at its target instead (foos_sim.drives, follow).
+            lead = None if builder.fast else self._servo_time_constants()
+            self._profiles = ProfileDrives(nominal_profiles, drive_limits, lead)
+        self._drive_effects = drive_limits
+        self._shaper = (DriveShaper(drive_limits, np.tile(self.command_limits, len(TEAMS)))
+                        if drive_limits and self._profiles is None else None)
+        # Each rod's y and the dofs and actuators of its slide and rotation, by y: the fast physics sub-steps
+        # when a figure near the ball moves fast (_substeps).
+        rods = []
+        for team in TEAMS:
+            for rod in RODS:
+                slide, rotate = (self.model.joint(f"{team}_{rod}_{axis}") for axis in AXES)
+                y = float(self.params["rods"]["layout"][f"{team}_{rod}"]["y"])
+                rods.append((y, int(slide.dofadr[0]), int(rotate.dofadr[0]),
+                             int(self.model.actuator(f"{team}_{rod}_slide").id), int(self.model.actuator(f"{team}_{rod}_rotate").id),
+                             int(rotate.qposadr[0]), int(slide.qposadr[0]), int(self.params["rods"]["layout"][f"{team}_{rod}"]["figures"]),
+                             float(self.params["rods"]["layout"][f"{team}_{rod}"]["spacing"])))
+        self._rods = sorted(rods)
+        self._rod_ys = [r[0] for r in self._rods]
+        self._ball_y = self._ball_qpos.start + 1
+        self._near = (self._figure_reach or 0.0) + self.ball_radius + NEAR_MARGIN
+        self._axis_height = float(self.params["rods"]["axis_height"])
+        self._head_reach = float(self.params["figure"]["head_height"])
+        # How close to a figure's mid-plane the ball's centre comes when it touches it (and a margin).
+        self._touch = self.ball_radius + float(self.params["figure"]["foot_size"][1]) / 2 + NEAR_MARGIN / 2
+        self._touch_x = self.ball_radius + float(self.params["figure"]["foot_size"][0]) / 2 + NEAR_MARGIN / 2
         # For each team (TEAMS order), which geoms are its figures', indexed by geom id.
         geom_teams = [figure_team(self.model.geom(g).name) for g in range(self.model.ngeom)]
         self._team_figure_geoms = tuple(np.array([owner == team for owner in geom_teams]) for team in TEAMS)
@@ -176,6 +229,9 @@ class TableSimulation:
         if team not in self._team_ctrl:
             raise CommandError(f"unknown team `{team}` (expected one of {TEAMS})")
         clipped = self.validate_command(command).clip(-self.command_limits, self.command_limits)
+        if self._profiles is not None:
+            self._profiles.receive(self.time, TEAMS.index(team), clipped)  # acts through the drive's generator
+            return clipped
         if self._shaper is not None:
             self._shaper.receive(self.time, TEAMS.index(team), clipped)  # acts through the drive's limits
             return clipped
@@ -185,6 +241,9 @@ class TableSimulation:
         return clipped
 
     def stop_team(self, team: str) -> None:
+        if self._profiles is not None:
+            self._profiles.receive(self.time, TEAMS.index(team), np.zeros(COMMAND_SIZE))
+            return
         if self._shaper is not None:
             # A stop is a zero command to the drives: it too arrives after their dead time and decelerates.
             self._shaper.receive(self.time, TEAMS.index(team), np.zeros(COMMAND_SIZE))
@@ -195,7 +254,12 @@ class TableSimulation:
 
     def drive_limits(self):
         """The drive effects applied (foos_sim.drive_limits.DriveLimits), or None on nominal drives."""
-        return None if self._shaper is None else self._shaper.limits
+        return self._drive_effects
+
+    def drive_profiles(self):
+        """The jerk-limited drives' nominal limits (foos_sim.drive_profiles.ProfileLimits), or None on the
+        plain velocity servos."""
+        return profile_limits(self.params)
 
     def drive_servo(self) -> Servo:
         """The 16 velocity servos (JOINT_NAMES order): reflected inertia, gain and force limit."""
@@ -206,6 +270,12 @@ class TableSimulation:
                      gain=self.model.actuator_gainprm[actuators, 0].copy(),
                      force_limit=self.model.actuator_forcerange[actuators, 1].copy() if self._drives is None
                      else self._drives.limit[actuators].copy())
+
+    def _servo_time_constants(self) -> np.ndarray:
+        """s, each drive's servo time constant (inertia / gain), JOINT_NAMES order."""
+        mujoco.mj_forward(self.model, self.data)  # the mass matrix, before the first step
+        servo = self.drive_servo()
+        return servo.inertia / servo.gain
 
     def place_ball(self, position: Sequence[float], velocity: Sequence[float] = (0.0, 0.0), rolling: bool = True) -> None:
         """Put the ball somewhere with a velocity (a hand launch), leaving the rods as they are."""
@@ -254,10 +324,14 @@ class TableSimulation:
         return self._goal
 
     def _reference_steps(self, n: int) -> None:
-        model, data, shaper = self.model, self.data, self._shaper
+        model, data, shaper, profiles = self.model, self.data, self._shaper, self._profiles
         remaining = n
         while remaining > 0:
             chunk = min(remaining, REFERENCE_CHUNK_STEPS)
+            if profiles is not None:
+                targets = profiles.targets(data.time, chunk * self.timestep)
+                if targets is not None:
+                    data.ctrl[self._all_ctrl] = targets
             if shaper is not None and not shaper.idle and data.time >= shaper.next_update - 0.5 * self.timestep:
                 # The target ramps over the time since its last update, at most one ramp interval (an idle
                 # shaper's last update may be long ago).
@@ -276,29 +350,111 @@ class TableSimulation:
                 self._goal = self._goal_now()
 
     def _fast_steps(self, n: int) -> None:
-        model, data, impacts, drives, dents = self.model, self.data, self._impacts, self._drives, self._dent_slopes
-        step1, step2, ball, shaper = mujoco.mj_step1, mujoco.mj_step2, self._ball_qpos, self._shaper
+        data, impacts, drives, shaper, profiles = self.data, self._impacts, self._drives, self._shaper, self._profiles
         impacts.update_gaps(data)  # the state may have been set since the last step (reset, place_ball)
+        h = self.timestep
         for i in range(n):
-            if shaper is not None and not shaper.idle:
-                data.ctrl[self._all_ctrl] = shaper.target(data.time, self.timestep)
-                drives.disturb()
-            drives.update()
-            if dents is not None:
-                data.xfrc_applied[self._ball_body, :2] = dents.force(*data.qpos[ball][:3].tolist())
-            step1(model, data)
-            if impacts.resolve(data):
-                step1(model, data)  # positions and velocities changed: collide and evaluate again
-                drives.disturb()  # a rod may have been jolted
-            step2(model, data)
-            impacts.after_step(data)
-            touching = impacts.touching
-            if touching[0] or touching[1] or self._touching[0] or self._touching[1]:
-                self._note_touches(touching)
-                drives.disturb()  # a figure held by the ball: its drive may be past its limit
+            if profiles is not None:
+                targets = profiles.targets(data.time, h)
+                if targets is not None:
+                    data.ctrl[self._all_ctrl] = targets
+                    drives.disturb()
+                substeps, figure_speed = self._substeps()
+                if substeps == 1:
+                    impacts.set_motion(data, figure_speed, h)
+                    self._fast_step()
+                else:
+                    self._sub_steps(substeps, figure_speed)
+            else:
+                if shaper is not None and not shaper.idle:
+                    data.ctrl[self._all_ctrl] = shaper.target(data.time, h)
+                    drives.disturb()
+                self._fast_step()
             # Every other step (4 ms; a shot into a goal spends 16 ms in the pocket before it could come out).
             if self._goal is None and (i & 1 or i == n - 1):
                 self._goal = self._goal_now()
+
+    def _substeps(self) -> tuple[int, float]:
+        """How many sub-steps the next step needs, and the fastest a figure that can touch the ball in it moves
+        (m/s, its rod's slide plus its rotation at the figure's reach, at its velocity now or its drive's target,
+        whichever is faster; the impacts' look-ahead).
+
+        A figure touches the ball only when it turns past it: its feet (or heads) sweep over an angle in the step,
+        and the ball lies in a sector around it seen from the rod's axis (half-width asin((ball radius + half
+        a foot's thickness + margin) / distance)). A rod spinning at full speed spends a sixth of a turn near the
+        ball; only those steps are cut, by the rotation's sweep at the figure's reach (FIGURE_STEP). A slide at
+        its 3.5 m/s moves 7 mm a step, as the former drives' figures did (4.3 m/s) without sub-steps."""
+        data, h = self.data, self.timestep
+        qpos, qvel, ctrl = data.qpos, data.qvel, data.ctrl
+        ball = self._ball_qpos.start
+        ball_x, ball_y, ball_z = float(qpos[ball]), float(qpos[ball + 1]), float(qpos[ball + 2])
+        vx, vy, vz = (float(v) for v in qvel[self._ball_qvel.start:self._ball_qvel.start + 3])
+        travel = math.sqrt(vx * vx + vy * vy + vz * vz) * h
+        near = self._near + travel
+        rods, ys = self._rods, self._rod_ys
+        i = bisect.bisect_left(ys, ball_y - near)
+        speed, substeps = LEAST_FIGURE_SPEED, 1
+        while i < len(ys) and ys[i] <= ball_y + near:
+            y, slide_dof, rotate_dof, slide, rotate, rotate_qpos, slide_qpos, figures, spacing = rods[i]
+            i += 1
+            dy, dz = ball_y - y, ball_z - self._axis_height
+            distance = math.hypot(dy, dz)
+            if distance > self._figure_reach + self._touch + travel:
+                continue
+            # Across the table: the ball within reach of the figure nearest to it (the rod slides in the step too).
+            across = ball_x - float(qpos[slide_qpos])
+            middle = (figures - 1) / 2  # figure k sits at (k - middle) * spacing from the rod's centre
+            nearest = (min(max(round(across / spacing + middle), 0), figures - 1) - middle) * spacing if figures > 1 else 0.0
+            slide_speed = max(abs(float(qvel[slide_dof])), abs(float(ctrl[slide])))
+            if abs(across - nearest) > self._touch_x + travel + slide_speed * h:
+                continue
+            now, target = float(qvel[rotate_dof]), float(ctrl[rotate])
+            angle = float(qpos[rotate_qpos])
+            low, high = angle + min(0.0, now * h, target * h), angle + max(0.0, now * h, target * h)
+            # The angle at which a figure points at the ball: 0 hangs straight down, + swings toward +y.
+            ball_angle = math.atan2(dy, -dz)
+            half = math.asin(min(1.0, (self._touch + travel) / max(distance, 1e-9)))
+            off = abs(math.remainder(ball_angle - 0.5 * (low + high), 2.0 * math.pi))
+            if off > 0.5 * (high - low) + half and (distance > self._head_reach + self._touch + travel
+                                                     or math.pi - off > 0.5 * (high - low) + half):
+                continue  # neither the feet nor the heads pass the ball in this step
+            turning = max(abs(now), abs(target)) * self._figure_reach
+            speed = max(speed, slide_speed + turning)
+            substeps = max(substeps, math.ceil(turning * h / FIGURE_STEP))
+        return substeps, FIGURE_SPEED_MARGIN * speed
+
+    def _sub_steps(self, substeps: int, figure_speed: float) -> None:
+        """One fast step as `substeps` shorter ones, the drives' targets taken for each."""
+        model, data, impacts, drives, profiles = self.model, self.data, self._impacts, self._drives, self._profiles
+        h = self.timestep / substeps
+        model.opt.timestep = h
+        drives.set_timestep(h)
+        impacts.set_motion(data, figure_speed, h)
+        try:
+            for targets in profiles.sub_targets(data.time, h, substeps):
+                data.ctrl[self._all_ctrl] = targets
+                drives.disturb()
+                self._fast_step()
+        finally:
+            model.opt.timestep = self.timestep
+            drives.set_timestep(self.timestep)
+
+    def _fast_step(self) -> None:
+        """One step of the fast physics at the model's timestep, impacts included."""
+        model, data, impacts, drives, dents = self.model, self.data, self._impacts, self._drives, self._dent_slopes
+        drives.update()
+        if dents is not None:
+            data.xfrc_applied[self._ball_body, :2] = dents.force(*data.qpos[self._ball_qpos][:3].tolist())
+        mujoco.mj_step1(model, data)
+        if impacts.resolve(data):
+            drives.after_impact()  # a rod may have been jolted
+            mujoco.mj_step1(model, data)  # positions and velocities changed: collide and evaluate again
+        mujoco.mj_step2(model, data)
+        impacts.after_step(data)
+        touching = impacts.touching
+        if touching[0] or touching[1] or self._touching[0] or self._touching[1]:
+            self._note_touches(touching)
+            drives.disturb()  # a figure held by the ball: its drive may be past its limit
 
     def _note_touches(self, touching: Sequence[bool]) -> None:
         for team in (0, 1):
@@ -358,6 +514,8 @@ class TableSimulation:
         mujoco.mj_resetData(self.model, self.data)
         if self._shaper is not None:
             self._shaper.reset()
+        if self._profiles is not None:
+            self._profiles.reset()
         self._time_owed = 0.0
         self._touching = [False, False]  # touching each team's figures at the last check
         self._touched_in_call = [False, False]

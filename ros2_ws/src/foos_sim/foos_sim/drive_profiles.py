@@ -1,0 +1,137 @@
+"""Jerk-limited rod drives: each of the 16 axes follows its velocity command on an S-curve (foos_sim.scurve).
+
+A servo drive's trajectory generator turns the velocity command into a setpoint within the drive's speed,
+acceleration and jerk limits, and its current loop makes the axis follow that setpoint. Here the generator
+is ProfileDrives and the loop is the MuJoCo velocity servo (kv, force limit) on each joint, stiff enough to
+follow the setpoint within a fraction of a millisecond (`rods.*_gain`).
+
+The contract's drive effects keep their meaning:
+- `rod_latency`: the generator acts on the command received `delay` earlier (dead time, CommandHistory);
+- `rod_speed_limit`: the setpoint never exceeds it (the lower of it and the nominal speed limit);
+- `rod_acceleration_limit`: the setpoint's acceleration never exceeds it (the lower of it and the nominal one).
+
+The generator re-plans from its own state (setpoint velocity and acceleration) whenever the command it acts
+on changes; between changes it follows the plan exactly (scurve.evaluate), so re-planning adds no drift.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from foos_core.names import AXES, JOINT_NAMES
+
+from . import scurve
+from .drive_limits import CommandHistory, DriveLimits
+
+BLOCK = 32  # setpoints computed at once for the next this many steps (one numpy pass, not one per step)
+_TIME_EPS = 1e-9
+
+
+@dataclass(frozen=True)
+class ProfileLimits:
+    """The nominal generator limits of the 16 drives (JOINT_NAMES order): speed, acceleration and jerk."""
+
+    speed: np.ndarray
+    acceleration: np.ndarray
+    jerk: np.ndarray
+
+
+def drive_kind(params: dict) -> str:
+    return str(params["rods"].get("drive", "servo"))
+
+
+def profile_limits(params: dict) -> Optional[ProfileLimits]:
+    """The parameter tree's jerk-limited drive limits, or None for the plain velocity servos (`rods.drive`)."""
+    rods = params["rods"]
+    if drive_kind(params) != "jerk_limited":
+        return None
+    per_axis = {axis: [float(rods[f"{axis}_speed_limit"]), float(rods[f"{axis}_acceleration_limit"]),
+                       float(rods[f"{axis}_jerk_limit"])] for axis in AXES}
+    values = np.array([per_axis[name.rsplit("_", 1)[1]] for name in JOINT_NAMES])
+    return ProfileLimits(values[:, 0].copy(), values[:, 1].copy(), values[:, 2].copy())
+
+
+def effective_limits(nominal: ProfileLimits, effects: Optional[DriveLimits]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(delay, speed, acceleration, jerk) per drive: the nominal generator under the drive effects."""
+    if effects is None:
+        return np.zeros(len(JOINT_NAMES)), nominal.speed, nominal.acceleration, nominal.jerk
+    return (effects.delay, np.minimum(effects.speed, nominal.speed), np.minimum(effects.acceleration, nominal.acceleration),
+            nominal.jerk)
+
+
+class ProfileDrives:
+    """The 16 drives' trajectory generators between set_command and the servos (see the module docstring).
+
+    receive() takes a team's clipped command when it arrives; targets(time, h) gives the servo targets for
+    an interval [time, time + h) (the setpoint at its middle), or None when they have not changed since the
+    last call (the drives hold their targets)."""
+
+    def __init__(self, nominal: ProfileLimits, effects: Optional[DriveLimits], lead: Optional[np.ndarray] = None):
+        self.effects = effects
+        # s per drive the servo targets run ahead of the setpoint: a velocity servo lags its target by its time
+        # constant (inertia / gain), so one fed the setpoint that much ahead follows it without that lag.
+        self.lead = np.zeros(len(JOINT_NAMES)) if lead is None else np.asarray(lead, dtype=float)
+        self._max_lead = float(self.lead.max())
+        self.delay, self.speed, self.accel, self.jerk = effective_limits(nominal, effects)
+        self._min_delay = float(self.delay.min())
+        self.history = CommandHistory(self.delay)
+        self._steps = (np.arange(BLOCK) + 0.5)[:, None]
+        self.reset()
+
+    def reset(self) -> None:
+        self.history.reset()
+        zero = np.zeros(len(JOINT_NAMES))
+        self.plan = scurve.plan(zero, zero, zero, self.accel, self.jerk)
+        self.plan_time = 0.0
+        self.settled_at = 0.0  # when every drive holds its target
+        self.next_due = np.inf  # when a received command next starts acting
+        self._block: Optional[np.ndarray] = None
+        self._block_t0, self._block_h = 0.0, 0.0
+        self._held = False  # the settled targets have been handed out
+
+    def receive(self, time: float, team: int, command: np.ndarray) -> None:
+        self.history.receive(time, team, command)
+        self.next_due = min(self.next_due, time + self._min_delay)
+
+    def state(self, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """The setpoints' velocity and acceleration at `time` (on the current plan)."""
+        v, a, _ = scurve.evaluate(self.plan, time - self.plan_time)
+        return v, a
+
+    def _update(self, time: float) -> None:
+        goal = np.clip(self.history.delayed_commands(time), -self.speed, self.speed)
+        if not np.array_equal(goal, self.plan.target):
+            v, a = self.state(time)
+            self.plan = scurve.plan(v, a, goal, self.accel, self.jerk)
+            self.plan_time = time
+            self.settled_at = time + float(self.plan.duration.max())
+            self._block = None
+            self._held = False
+        self.next_due = self.history.next_due(time)
+
+    def sub_targets(self, time: float, h: float, n: int) -> np.ndarray:
+        """(n, 16) servo targets for n sub-steps of h from `time` (one evaluation, apart from targets()' block)."""
+        if time >= self.next_due - _TIME_EPS:
+            self._update(time)
+        offsets = (np.arange(n) + 0.5)[:, None] * h
+        return scurve.evaluate(self.plan, time - self.plan_time + offsets + self.lead)[0]
+
+    def targets(self, time: float, h: float) -> Optional[np.ndarray]:
+        if time >= self.next_due - _TIME_EPS:
+            self._update(time)
+        if time + 0.5 * h + self._max_lead >= self.settled_at:
+            if self._held:
+                return None
+            self._held = True
+            return self.plan.target
+        block = self._block
+        if block is not None and h == self._block_h:
+            k = (time - self._block_t0) / h
+            i = int(k + 0.5)
+            if i < len(block) and abs(k - i) < 1e-6:
+                return block[i]
+        self._block = block = scurve.evaluate(self.plan, time - self.plan_time + self._steps * h + self.lead)[0]
+        self._block_t0, self._block_h = time, h
+        return block[0]
