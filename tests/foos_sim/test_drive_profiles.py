@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES
-from foos_core.table_params import DEFAULT_PARAMS_FILE, SERVO_PARAMS_FILE, ParamsError, load_params
+from foos_core.table_params import (
+    DEFAULT_PARAMS_FILE,
+    ROBOT_PARAMS_FILE,
+    SERVO_PARAMS_FILE,
+    ParamsError,
+    load_params,
+)
 from foos_sim import scurve
 from foos_sim.drive_limits import Servo, predict_positions
 from foos_sim.drive_profiles import profile_limits
@@ -46,14 +52,15 @@ def test_a_rest_to_rest_swing_is_time_optimal():
     assert float(np.interp(np.pi / 2, d, v)) == pytest.approx(74.1, abs=0.2)
 
 
-def test_the_regulation_table_has_the_robot_tables_drives():
-    limits = profile_limits(load_params())
+def test_the_robot_table_has_the_robot_tables_drives():
+    limits = profile_limits(load_params(ROBOT_PARAMS_FILE))
     rotate = np.array([n.endswith("_rotate") for n in JOINT_NAMES])
     assert np.allclose(limits.speed[rotate], 314.159) and np.allclose(limits.speed[~rotate], 3.48)
     assert np.allclose(limits.acceleration[rotate], 9425.0) and np.allclose(limits.acceleration[~rotate], 104.0)
     assert np.allclose(limits.jerk[rotate], 36650.0) and np.allclose(limits.jerk[~rotate], 406.0)
     assert "Jaykixx/Foosball" in DEFAULT_PARAMS_FILE.read_text()
     assert profile_limits(load_params(SERVO_PARAMS_FILE)) is None
+    assert profile_limits(load_params()) is None  # the default keeps the servos (regulation_table.yaml says why)
 
 
 def test_a_drive_kind_that_does_not_exist_is_refused(tmp_path):
@@ -68,7 +75,7 @@ def test_the_drives_follow_their_s_curves(physics):
     """Full rotation and a slide command from rest: each joint's velocity stays within 3 % of its target of the
     S-curve the generator plans (the fast physics moves a step at its middle's velocity), its position within
     0.02 rad / 1 mm."""
-    sim = TableSimulation(physics=physics)
+    sim = TableSimulation(ROBOT_PARAMS_FILE, physics=physics)
     sim.reset(ball_position=(0.3, 0.58))
     command = np.zeros(COMMAND_SIZE)
     command[ATTACK_ROTATE], command[ATTACK_SLIDE] = sim.command_limits[ATTACK_ROTATE], 0.8
@@ -96,7 +103,7 @@ EFFECTS = [
 def test_the_drive_effects_mean_what_they_say_on_the_s_curve_drives(physics):
     """Dead time: nothing moves before it. Speed limit: the drive reaches it, not more. Acceleration limit: the
     velocity changes no faster (the away attack, without it, changes faster)."""
-    params = load_params()
+    params = load_params(ROBOT_PARAMS_FILE)
     sim = TableSimulation(params={**params, "effects": EFFECTS}, physics=physics)
     sim.reset(ball_position=(0.3, 0.58))
     command = np.zeros(COMMAND_SIZE)
@@ -137,7 +144,7 @@ def test_the_predictor_follows_the_s_curve_drives():
     against the fast physics: random commands with the effects above, starts where a new command arrives after
     the last one has settled (setpoint acceleration 0), positions 0.1 and 0.2 s ahead away from the stops."""
 
-    params = load_params()
+    params = load_params(ROBOT_PARAMS_FILE)
     sim = TableSimulation(params={**params, "effects": EFFECTS})
     sim.reset(ball_position=(0.3, 0.58))
     rng = np.random.default_rng(4)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from foos_core.table_params import ROBOT_PARAMS_FILE
 from foos_sim.kick_trials import kick, random_trial
 from foos_sim.simulation import TableSimulation
 
@@ -16,7 +17,7 @@ RANDOM_TRIALS = 40  # per physics here; scripts/bench_sim --kicks runs 1000
 
 @pytest.fixture(scope="module")
 def both():
-    return {physics: TableSimulation(physics=physics) for physics in ("fast", "reference")}
+    return {physics: TableSimulation(ROBOT_PARAMS_FILE, physics=physics) for physics in ("fast", "reference")}
 
 
 @pytest.fixture(scope="module")

@@ -19,6 +19,8 @@ DEFAULT_PARAMS_FILE = PARAMS_DIR / "regulation_table.yaml"
 REFERENCE_PARAMS_FILE = PARAMS_DIR / "reference_table.yaml"  # the regulation table on the 20 kHz reference physics
 SERVO_PARAMS_FILE = PARAMS_DIR / "servo_table.yaml"  # the regulation table with the former 40 rad/s velocity servos
 SERVO_REFERENCE_PARAMS_FILE = PARAMS_DIR / "servo_reference_table.yaml"  # the same on the 20 kHz reference physics
+ROBOT_PARAMS_FILE = PARAMS_DIR / "robot_table.yaml"  # the regulation table with a robot table's jerk-limited drives
+ROBOT_REFERENCE_PARAMS_FILE = PARAMS_DIR / "robot_reference_table.yaml"  # the same on the 20 kHz reference physics
 DRIVE_KINDS = ("jerk_limited", "servo")
 
 
