@@ -45,6 +45,7 @@ def test_a_game_bag_calibrates_its_rods(ros2_run, tmp_path):
     assert report["rods"]["calibrated"]["slide_median_error_mm_0_25s"] < report["rods"]["baseline"]["slide_median_error_mm_0_25s"]
     assert "rod_latency" in (out / "calibrated_table.yaml").read_text() and "## The rod drives" in (out / "report.md").read_text()
     assert_every_named_effect_gains(report)
+    assert report["not_checked"] == []  # encoders and both teams' commands: everything was checked
 
 
 def held_out_intervals(gain) -> list[list[float]]:

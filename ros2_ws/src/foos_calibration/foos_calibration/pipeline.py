@@ -229,6 +229,7 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
         "params_file": str(params_file.resolve()),
         "unexplained": unexplained,
         "noise_floor": noise_floor,
+        "not_checked": not_checked(rods is not None, encoders is not None),
         "rejected": _rejected(selection, restitution, rods, game),
         "data": {
             "bag": bag, "detections": int(len(t)), "duration_s": round(float(t[-1] - t[0]), 2),
@@ -294,6 +295,20 @@ def _judge_gains(measured, selection, theta_base, seed, progress) -> None:
         selection.fit = fit(SegmentBatch(measured.segments), free_indices(selection.effects), theta, selection.fit.states)
     for name, gain in gains.items():
         selection.evidence.setdefault(name, {})["gain"] = gain
+
+
+def not_checked(drives: bool, encoders: bool) -> list[str]:
+    """What a recording without rod encoders or commands (a camera alone) does not let calibrate check."""
+    out = []
+    if not drives:
+        out.append("the rod drives (rod_latency, rod_speed_limit, rod_acceleration_limit): no /joint_states with both "
+                   "teams' rod commands")
+    if not encoders:
+        out += ["camera_latency: no /joint_states to time the ball's touches of the figures against",
+                "figure_restitution: no /joint_states to pose the figures",
+                "figure contacts: inferred from the ball's path alone (sudden velocity changes near a rod line), so a "
+                "touch that hardly changes the ball's velocity may stay inside a rolling segment"]
+    return out
 
 
 def _rejected(selection, restitution, rods, game=None) -> dict:
@@ -374,6 +389,8 @@ def plain_summary(report: dict) -> str:
                              f"(held-out, {c.get('starts', '?')} starts)")
     if report.get("ball_skipped"):
         lines.append(f"The ball was NOT calibrated: {report['ball_skipped']}")
+    for item in report.get("not_checked") or []:
+        lines.append(f"Not checked: {item}")
     lines.append(f"Calibrated model: {report['params_file']}")
     return "\n".join(lines)
 
@@ -399,6 +416,8 @@ def markdown(report: dict, nominal_rolling: float, nominal_e: float) -> str:
                 "| where | residual (mm) | noise (mm) | ratio |", "|---|---|---|---|"]
         out += [f"| {u['where']} | {u['residual_mm']} | {u['noise_mm']} | {u['ratio']} |" for u in unexplained]
         out += ["", f"![unexplained]({FIGURE_FILE})" if report.get("figures") else ""]
+    if report.get("not_checked"):
+        out += ["", "## What this recording did not let calibrate check", ""] + [f"- {item}" for item in report["not_checked"]]
     if report.get("rejected"):
         out += ["", "Candidates tried and not named:", ""]
         out += [f"- {k}: {v}" for k, v in report["rejected"].items()]
