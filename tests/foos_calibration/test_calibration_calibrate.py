@@ -53,6 +53,10 @@ def test_a_random_hidden_effect_is_found(tmp_path):
 def test_nominal_data_gives_no_effect(tmp_path):
     report = run([], seed=5, tmp_path=tmp_path)
     assert report["effects"] == []
+    # A camera alone (issue 27 item 5): the report says what it could not check.
+    assert [item.split(":")[0] for item in report["not_checked"]] == [
+        "the rod drives (rod_latency, rod_speed_limit, rod_acceleration_limit)", "camera_latency", "figure_restitution",
+        "figure contacts"], report["not_checked"]
     assert report["calibrated"]["median_error_mm_1s"] == report["baseline"]["median_error_mm_1s"]
     assert load_params(report["params_file"]).get("effects") == []
 

@@ -2,13 +2,16 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from foos_bag import (
     FLOAT64_MULTI_ARRAY,
     JOINT_STATE,
     BagWriter,
+    read_ball_detections,
     read_commands,
     read_joint_states,
     topics,
@@ -16,8 +19,9 @@ from foos_bag import (
     write_joint_states,
 )
 from foos_bag.message_types import header
-from foos_calibration import games
+from foos_calibration import game_styles, games
 from foos_core.names import JOINT_NAMES, TEAMS
+from foos_core.table_params import load_params
 
 from .test_calibration_cli import one_line_error
 
@@ -40,6 +44,25 @@ def test_a_game_bag_calibrates_its_rods(ros2_run, tmp_path):
     assert [e["name"] for e in rods] == ["rod_latency"] and abs(rods[0]["params"]["delay"] - 0.04) <= 0.005
     assert report["rods"]["calibrated"]["slide_median_error_mm_0_25s"] < report["rods"]["baseline"]["slide_median_error_mm_0_25s"]
     assert "rod_latency" in (out / "calibrated_table.yaml").read_text() and "## The rod drives" in (out / "report.md").read_text()
+    assert_every_named_effect_gains(report)
+    assert report["not_checked"] == []  # encoders and both teams' commands: everything was checked
+
+
+def held_out_intervals(gain) -> list[list[float]]:
+    """Every 95 % interval of a drop in an effect's `evidence.gain` (per part, per axis where it has them)."""
+    if not isinstance(gain, dict):
+        return []
+    own = [gain["ci95_drop"]] if gain.get("ci95_drop") is not None else []
+    return own + [ci for value in gain.values() for ci in held_out_intervals(value)]
+
+
+def assert_every_named_effect_gains(report: dict) -> None:
+    """Nothing named without a gain (the contract): every named effect's held-out drop has an interval above zero,
+    and what was tried and not named is in the report's `rejected`."""
+    assert isinstance(report["rejected"], dict)
+    for effect in report["effects"]:
+        intervals = held_out_intervals(effect["evidence"]["gain"])
+        assert intervals and all(ci[0] > 0 for ci in intervals), effect
 
 
 def write_game(path, t, names=JOINT_NAMES, commands=True, joints=True, backwards_at=None):
@@ -99,3 +122,49 @@ def test_a_figure_restitution_is_hidden_in_games_only(ros2_run, tmp_path):
         lines = result.stderr.strip().splitlines()
         assert result.returncode == 2 and len(lines) == 1 and lines[0].startswith("generate_measured:") and text in lines[0], result.stderr
     assert not (tmp_path / "free").exists() and not (tmp_path / "bad").exists()
+
+
+def test_a_styled_game_is_drawn_from_its_seed_recorded_beside_the_bag_and_measured_as_drawn(ros2_run, tmp_path):
+    bag = tmp_path / "styled"
+    made = ros2_run("generate_measured", str(bag), "--game", "--duration", "8", "--seed", "11", "--style", "random", timeout=120)
+    assert made.returncode == 0, made.stderr
+    drawn = game_styles.draw(11)
+    assert drawn == game_styles.draw(11) and game_styles.read_style(bag) == drawn.as_dict()
+    assert "style: home " + drawn.players[0] in made.stdout
+    states = read_joint_states(bag)
+    # Lost samples make some gaps longer; most are the drawn rate's.
+    assert abs(1 / np.median(np.diff(states.t)) - drawn.encoder_rate) < 0.02 * drawn.encoder_rate, drawn
+    detections = read_ball_detections(bag)
+    assert len(detections.t) <= drawn.fps * 8.0 and 1 / np.median(np.diff(detections.t)) == pytest.approx(drawn.fps, rel=0.02)
+    bad = ros2_run("generate_measured", str(tmp_path / "bad"), "--game", "--style", "wild")
+    assert bad.returncode == 2 and bad.stderr.strip().splitlines() == [
+        f"generate_measured: unknown style `wild` (known: random, {', '.join(game_styles.PLAYER_STYLES)})"], bad.stderr
+    assert not (tmp_path / "bad").exists()
+
+
+@pytest.mark.parametrize("name", game_styles.PLAYER_STYLES)
+def test_each_players_style_plays_as_it_says(name):
+    style = game_styles.draw(4, name)
+    recording = games.play([], replace(games.GameOptions(duration=6.0, seed=4), fps=style.fps, encoder_rate=style.encoder_rate),
+                           style=style)
+    limits = np.max(np.abs(np.concatenate([recording.commands[t] for t in TEAMS])), axis=0)
+    sent = np.concatenate([recording.commands[t] for t in TEAMS])
+    slide = np.array([n.endswith("_slide") for n in JOINT_NAMES])
+    if name == "bang_bang":
+        assert np.all(np.isclose(np.abs(sent), 0.0) | np.isclose(np.abs(sent), limits))
+    if name == "passive":
+        assert np.all(np.abs(sent) <= 0.5 * games.TableSimulation().command_limits + 1e-9)
+    if name == "fast_commands":
+        assert np.median(np.diff(recording.command_t)) < np.median(np.diff(recording.joint_t))
+    if name == "into_stops":  # some slide sits at its stop
+        travel = np.array([load_params()["rods"]["layout"][j.rsplit("_", 1)[0]]["travel"] for j in JOINT_NAMES])
+        assert np.any(np.abs(recording.joint_position[:, slide]) > travel[slide] - 0.005)
+    if name == "spinning":  # some rod turns more than three times
+        assert np.ptp(recording.joint_position[:, ~slide], axis=0).max() > 6 * np.pi
+    if name == "held_still":  # some rod holds still (turned by the ball at most) for a second
+        windows = np.lib.stride_tricks.sliding_window_view(recording.joint_position[:, slide], int(style.encoder_rate), axis=0)
+        assert np.ptp(windows, axis=2).min() < 0.003  # m: within the encoder noise's few tenths of a mm, and a touch
+    if style.hide_under_figures:
+        hidden = game_styles.under_a_figure(recording, load_params())
+        assert not hidden.any()
+    assert len(recording.ball_t) > 100 and np.all(np.diff(recording.joint_t) > 0)

@@ -6,12 +6,13 @@ not in foos_sim.drive_limits, the model the identification fits. Tolerances: lat
 """
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from foos_calibration.game_data import drive_model
 from foos_calibration.games import GameOptions, play
 from foos_calibration.rods import DriveData, identify, markdown
-from foos_core.names import TEAMS
+from foos_core.names import JOINT_NAMES, TEAMS
 from foos_core.table_params import SERVO_PARAMS_FILE, load_params
 
 DURATION = 30.0  # s of game per case
@@ -99,3 +100,37 @@ def test_a_drive_of_its_own_shows_its_gain_in_the_per_drive_errors():
         assert own[f"away_goalie_{axis}"]["calibrated"] == own[f"away_goalie_{axis}"]["baseline"], own
     text = markdown(result.block, result.effects)
     assert f"home_attack_slide: {own['home_attack_slide']['baseline']} -> {own['home_attack_slide']['calibrated']} mm" in text
+
+
+def test_a_limit_the_velocities_show_but_the_positions_do_not_is_refused():
+    """Nothing named without a held-out gain (issue 27): nominal drives whose encoders report a velocity that saturates
+    at 1 m/s on the midfield slides (a velocity estimator's range; the positions are true). The velocity fit alone
+    names a `rod_speed_limit` on both midfield slides, as it did on other players' nominal games; the joint positions
+    0.25 s ahead on held-out stretches gain nothing from it, so it is refused, with its gain and the reason."""
+    recording = play([], GameOptions(duration=DURATION, seed=7))
+    velocity = recording.joint_velocity.copy()
+    for team in TEAMS:
+        j = JOINT_NAMES.index(f"{team}_midfield_slide")
+        velocity[:, j] = np.clip(velocity[:, j], -1.0, 1.0)
+    data = DriveData(recording.joint_t, recording.joint_position, velocity,
+                     {team: recording.command_t for team in TEAMS}, recording.commands)
+    result = identify(data, drive_model(load_params()))
+    assert result.effects == [], result.effects
+    refused = sorted((e["name"], e["params"].get("team"), e["params"].get("rod")) for e in result.refused)
+    assert refused == [("rod_speed_limit", "away", "midfield"), ("rod_speed_limit", "home", "midfield")], refused
+    for effect in result.refused:
+        gain = effect["evidence"]["gain"]["alone"]["slide_mm"]
+        assert gain["ci95_drop"][0] <= 0 and "no held-out gain" in effect["evidence"]["reason"], effect["evidence"]
+    assert result.block["refused_for_no_gain"] == result.refused and result.block["per_drive"] == {}
+
+
+def test_every_named_drive_effect_carries_a_held_out_gain():
+    """The gain rule's other side: a true latency gains on every axis, alone and in the final set."""
+    result = identified([{"name": "rod_latency", "params": {"delay": 0.03}}], seed=3)
+    assert [e["name"] for e in result.effects] == ["rod_latency"] and result.refused == []
+    gain = result.effects[0]["evidence"]["gain"]
+    assert gain["horizon_s"] == 0.25
+    for part in ("alone", "in_final_set"):
+        for axis in ("slide_mm", "rotate_deg"):
+            block = gain[part][axis]
+            assert block["ci95_drop"][0] > 0 and block["with"] < block["without"] and block["stretches"] >= 6, gain

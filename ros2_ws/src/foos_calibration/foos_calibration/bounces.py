@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from . import surrogate
+from . import effect_gain, surrogate
 from .fitting import DT, Fit
 from .mjsim import BallRollouts, set_wall_restitution
 from .tracks import Measured
@@ -129,9 +129,22 @@ def fit_restitution(measured: Measured, fit_: Fit, params: dict, nominal: float,
         "in_sample_error_drop_noise_variances": round(float((spline_at(total, nominal) - spline_at(total, fitted)) / sigma2), 1),
         "bounces": len(windows),
         "material": bool(abs(fitted - nominal) >= MIN_CHANGE),
+        "gain": _gain(windows, rss, folds, nominal),
     }
-    named = sum(drops) >= MIN_EVIDENCE and min(drops) > 0 and evidence["material"]
+    named = (sum(drops) >= MIN_EVIDENCE and min(drops) > 0 and evidence["material"]
+             and effect_gain.excludes_zero(evidence["gain"]))
     return RestitutionResult(fitted if named else None, fitted, evidence, windows, rss)
+
+
+def _gain(windows: list[BounceWindow], rss: np.ndarray, folds: np.ndarray, nominal: float) -> dict:
+    """The gain rule (effect_gain): each bounce window's replay error (RMS, mm), held out (at the restitution fitted on
+    the other fold's bounces), without and with the fitted restitution; each bounce its own stretch."""
+    fold_e = [spline_minimum(rss[folds == k].sum(axis=0)) if np.any(folds == k) else nominal for k in (0, 1)]
+    points = np.array([2 * max(len(w.t), 1) for w in windows])
+    without = np.array([np.sqrt(max(spline_at(row, nominal), 0.0) / n) for row, n in zip(rss, points)])
+    with_ = np.array([np.sqrt(max(spline_at(row, fold_e[1 - k]), 0.0) / n) for row, k, n in zip(rss, folds, points)])
+    return {"what": "median over wall bounces of the replay's RMS ball error (mm), each at the other fold's coefficient",
+            **effect_gain.drop_interval(without, with_, np.arange(len(windows)), scale=1000.0)}
 
 
 def fold_restitution(result: RestitutionResult, fold: int, nominal: float) -> float:

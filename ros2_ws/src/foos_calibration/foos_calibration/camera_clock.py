@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import effect_gain
 from .figure_contacts import FigureModel, JointTrack
 from .figure_kinks import Kink
 
@@ -108,7 +109,12 @@ def find_camera_latency(kinks: list[Kink], figures: FigureModel, joints: JointTr
     interval = [round(float(v), 4) for v in np.percentile(boot, [2.5, 97.5])]
     agree = abs(fold_delays[0] - fold_delays[1]) <= max(FOLD_AGREEMENT[0], FOLD_AGREEMENT[1] * abs(fitted))
     material = fitted >= MIN_DELAY
-    named = bool(sum(drops) >= MIN_EVIDENCE and min(drops) > 0 and agree and material)
+    # The gain rule (effect_gain): each touch's gap to the figures, held out (at the other fold's delay), without and
+    # with the latency; each touch its own stretch.
+    held = np.array([np.interp(fold_delays[1 - k], SHIFTS, np.abs(row)) for row, k in zip(gaps, folds)])
+    gain = {"what": "median over figure touches of the ball's gap to the figures (mm), each touch at the other fold's delay",
+            **effect_gain.drop_interval(np.abs(gaps[:, np.argmin(np.abs(SHIFTS))]), held, np.arange(len(gaps)), seed, 1000.0)}
+    named = bool(sum(drops) >= MIN_EVIDENCE and min(drops) > 0 and agree and material and effect_gain.excludes_zero(gain))
     evidence = {
         "held_out_error_drop_noise_variances": round(float(sum(drops)), 1),
         "per_fold": [round(float(d), 1) for d in drops],
@@ -118,7 +124,10 @@ def find_camera_latency(kinks: list[Kink], figures: FigureModel, joints: JointTr
         "ci95_s": interval,
         "material": bool(material),
         "folds_agree": bool(agree),
+        "gain": gain,
     }
+    if sum(drops) >= MIN_EVIDENCE and min(drops) > 0 and agree and material and not named:
+        evidence["reason"] = "no held-out gain: the drop's 95 % interval does not lie above zero"
     block.update({"named": named, "fitted_delay_s": round(fitted, 4), "ci95_s": interval,
                   "fold_delays_s": evidence["fold_delays_s"], "held_out_drop_noise_variances": evidence["per_fold"],
                   "median_gap_mm_at_zero": round(float(np.median(np.abs(gaps[:, np.argmin(np.abs(SHIFTS))]))) * 1000, 2),

@@ -30,6 +30,7 @@ import numpy as np
 from foos_core.names import JOINT_NAMES, TEAMS
 from foos_sim.simulation import TableSimulation
 
+from . import effect_gain
 from .bounces import spline_at, spline_minimum
 from .figure_contacts import FigureModel, JointTrack
 from .figure_kinks import Kink
@@ -224,6 +225,15 @@ def find_figure_restitution(kinks: list[Kink], t: np.ndarray, xy: np.ndarray, fi
     boot = [float(np.median(own[rng.integers(0, len(own), len(own))])) for _ in range(500)]
     interval = [round(float(v), 3) for v in np.percentile(boot, [2.5, 97.5])]
     material = abs(fitted - nominal) >= MIN_CHANGE
+    # The gain rule (effect_gain): the replays' RMS ball error over the bounces, each window's in units of its own best
+    # replay's (as the evidence weighs them, capped), held out (each at the other fold's coefficient), without and with
+    # the fitted restitution; each bounce its own stretch.
+    per_point = rss / points[:, None]
+    held = np.array([np.interp(fold_fits[1 - k], GRID, row) for row, k in zip(per_point, folds)])
+    gain = {"what": "RMS over the bounces off slow figures of the replay's ball error, in units of each window's best "
+                    "replay's error (1: every window at its best), each at the other fold's coefficient",
+            **effect_gain.drop_interval(np.array([np.interp(nominal, GRID, row) for row in per_point]), held,
+                                        np.arange(len(per_point)), weights=points.astype(float))}
     evidence = {
         "held_out_error_drop_noise_variances": round(float(sum(drops)), 1),
         "per_fold": [round(float(d), 1) for d in drops],
@@ -233,8 +243,11 @@ def find_figure_restitution(kinks: list[Kink], t: np.ndarray, xy: np.ndarray, fi
         "bounces": int(len(rss)),
         "ci95": interval,
         "material": bool(material),
+        "gain": gain,
     }
-    named = bool(sum(drops) >= MIN_EVIDENCE and min(drops) > 0 and material)
+    named = bool(sum(drops) >= MIN_EVIDENCE and min(drops) > 0 and material and effect_gain.excludes_zero(gain))
+    if sum(drops) >= MIN_EVIDENCE and min(drops) > 0 and material and not named:
+        evidence["reason"] = "no held-out gain: the drop's 95 % interval does not lie above zero"
     block.update({"named": named, "fitted": round(fitted, 3), "ci95": interval, "fold_coefficients": evidence["fold_coefficients"],
                   "held_out_drop_noise_variances": evidence["per_fold"]})
     effects = [{"name": "figure_restitution", "params": {"coefficient": round(fitted, 3)}, "evidence": evidence}] if named else []

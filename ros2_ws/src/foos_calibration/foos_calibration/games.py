@@ -86,6 +86,7 @@ class GameRecording:
     serves: int = 0
     goals: list[str] = field(default_factory=list)
     touches: tuple[int, int] = (0, 0)
+    style: dict | None = None  # game_styles.GameStyle.as_dict() of a styled game
 
 
 def _selects(params: dict, team: str, rod: str, axis: str) -> bool:
@@ -167,6 +168,7 @@ class Player:
         self.kick_until = [-1.0] * len(RODS)
         self.burst_until = [-1.0] * COMMAND_SIZE
         self.burst_value = [0.0] * COMMAND_SIZE
+        self.period = CONTROL_PERIOD  # s between commands (a style may send faster)
 
     def command(self, time: float, ball: np.ndarray, joints: np.ndarray) -> np.ndarray:
         out = np.zeros(COMMAND_SIZE)
@@ -187,7 +189,7 @@ class Player:
                 hang = 2 * math.pi * round(angle / (2 * math.pi))
                 out[2 * r + 1] = 30.0 * (hang - angle)
             for axis in (2 * r, 2 * r + 1):
-                if time >= self.burst_until[axis] and self.rng.random() < self.excitation * CONTROL_PERIOD / 0.1:
+                if time >= self.burst_until[axis] and self.rng.random() < self.excitation * self.period / 0.1:
                     # Bursts of 40-100 % of the limit, either way, for 0.06-0.3 s: reversals and top speed.
                     self.burst_until[axis] = time + self.rng.uniform(0.06, 0.3)
                     self.burst_value[axis] = self.rng.choice((-1.0, 1.0)) * self.rng.uniform(0.4, 1.0) * self.limits[axis]
@@ -211,11 +213,14 @@ def _serve(sim: TableSimulation, rng: np.random.Generator) -> None:
             return
 
 
-def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: dict | None = None) -> GameRecording:
+def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: dict | None = None,
+         style=None) -> GameRecording:
     """A game of `options.duration` s on an ideal (fast-physics) table.
 
     The hidden drive effects are applied by HiddenDrives, the table effects (TABLE_EFFECTS) by forces on
-    the ball from this loop (hidden_forces), both outside the model that `calibrate` fits.
+    the ball from this loop (hidden_forces), both outside the model that `calibrate` fits. A `style`
+    (game_styles.GameStyle) changes how the players play, how often they send and when their commands arrive
+    and are stamped, and what the camera and encoders lose.
     """
     hideable = DRIVE_EFFECTS + TABLE_EFFECTS + CAMERA_EFFECTS + FIGURE_EFFECTS
     unknown = [e.get("name") for e in effects if e.get("name") not in hideable]
@@ -234,10 +239,12 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
     hidden = HiddenDrives(effects, sim.command_limits)
     pushed = _BallPush(sim, params, table) if effects and any(e.get("name") in TABLE_EFFECTS for e in effects) else None
     players = [Player(team, params, sim.command_limits, rng, options.excitation) for team in TEAMS]
+    if style is not None:
+        players = [style.player(team, player, rng) for team, player in zip(TEAMS, players)]
     sim.reset()
     _serve(sim, rng)
     dt = sim.timestep
-    per_control = max(1, round(CONTROL_PERIOD / dt))
+    per_control = max(1, round((style.control_period if style is not None else CONTROL_PERIOD) / dt))
     steps = int(round(options.duration / dt))
     ball_t, ball_p, joint_p, joint_v, command_t = [], [], [], [], []
     commands = {team: [] for team in TEAMS}
@@ -246,11 +253,12 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
         time = sim.time
         if k % per_control == 0:
             ball, joints = sim.ball_position(), sim.joint_positions()
-            command_t.append(time)
+            arrival = time + (style.transport(rng) if style is not None else 0.0)  # the drives act on it from then
+            command_t.append(arrival if style is None or style.stamps == "arrival" else time)
             for t_index, (team, player) in enumerate(zip(TEAMS, players)):
                 sent = player.command(time, ball, joints[t_index * COMMAND_SIZE:(t_index + 1) * COMMAND_SIZE])
                 commands[team].append(sent)
-                hidden.send(time, t_index, sent)
+                hidden.send(arrival, t_index, sent)
         for t_index, row in enumerate(hidden.step(time, dt)):
             sim.set_command(TEAMS[t_index], row)
         if pushed is not None:
@@ -268,8 +276,12 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
             _serve(sim, rng)
             serves += 1
             rest_since = None
-    return _measure(options, rng, sim, camera_delay, np.array(ball_t), np.array(ball_p), np.array(joint_p), np.array(joint_v),
-                    np.array(command_t), {t: np.array(v) for t, v in commands.items()}, serves, goals)
+    recording = _measure(options, rng, sim, camera_delay, np.array(ball_t), np.array(ball_p), np.array(joint_p),
+                         np.array(joint_v), np.array(command_t), {t: np.array(v) for t, v in commands.items()}, serves, goals)
+    if style is not None:
+        recording = style.measure(recording, params, rng)
+        recording.style = style.as_dict()
+    return recording
 
 
 class _BallPush:
@@ -325,15 +337,21 @@ def _measure(options, rng, sim, camera_delay, t, ball, joint_p, joint_v, command
     detections = ball[index[seen]].copy()
     detections[:, :2] += rng.normal(0.0, options.noise, size=(len(detections), 2))
     detections[:, 2] = sim.ball_radius  # a camera tracker reports the ball-centre plane
-    every = max(1, round(1.0 / (options.encoder_rate * sim.timestep)))
-    pick = np.arange(every - 1, len(t), every)
+    every = 1.0 / (options.encoder_rate * sim.timestep)
+    if abs(every - round(every)) < 1e-6:  # a whole number of physics steps between samples
+        pick = np.arange(max(1, round(every)) - 1, len(t), max(1, round(every)))
+        joint_t, joint_p, joint_v = t[pick], joint_p[pick], joint_v[pick]
+    else:  # any other rate (above the physics rate too): the truth between steps, interpolated
+        joint_t = np.arange(t[0] + 1.0 / options.encoder_rate, t[-1], 1.0 / options.encoder_rate)
+        joint_p = np.stack([np.interp(joint_t, t, column) for column in joint_p.T], axis=1)
+        joint_v = np.stack([np.interp(joint_t, t, column) for column in joint_v.T], axis=1)
     slide = np.array([name.endswith("_slide") for name in JOINT_NAMES])
-    position = joint_p[pick] + rng.normal(size=(len(pick), len(JOINT_NAMES))) * np.where(
+    position = joint_p + rng.normal(size=(len(joint_t), len(JOINT_NAMES))) * np.where(
         slide, options.slide_noise, options.rotate_noise)
-    velocity = joint_v[pick] + rng.normal(size=(len(pick), len(JOINT_NAMES))) * np.where(
+    velocity = joint_v + rng.normal(size=(len(joint_t), len(JOINT_NAMES))) * np.where(
         slide, options.slide_velocity_noise, options.rotate_velocity_noise)
     # A camera latency: the stamp is later than the capture (the encoders' stamps stay the reference clock).
-    return GameRecording(frames[seen] + camera_delay, detections, t[pick], position, velocity, command_t, commands, serves, goals,
+    return GameRecording(frames[seen] + camera_delay, detections, joint_t, position, velocity, command_t, commands, serves, goals,
                          sim.figure_touches())
 
 
@@ -373,10 +391,10 @@ def random_figure_restitution(rng: np.random.Generator) -> dict:
 
 
 def generate_game(path: str | Path, effects: Sequence[dict], options: GameOptions = GameOptions(),
-                  params: dict | None = None) -> GameRecording:
+                  params: dict | None = None, style=None) -> GameRecording:
     if Path(path).exists():
         raise GameError(f"{path} exists already; choose another name or delete it")
-    recording = play(effects, options, params)
+    recording = play(effects, options, params, style)
     write_game_bag(recording, path)
     return recording
 
@@ -386,6 +404,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--encoder-rate", type=float, default=250.0, help="/joint_states rate in a game, Hz (default 250)")
     parser.add_argument("--excitation", type=float, default=0.35,
                         help="game: share of 0.1 s in which a rod starts a random burst (default 0.35)")
+    parser.add_argument("--style", default=None, metavar="STYLE",
+                        help="game: play and record like others (foos_calibration.game_styles): 'random' draws each team's "
+                             "style and the recording's conditions (encoder and camera rates, occlusions, lost samples, "
+                             "command stamps) from --seed; a style's name (default, bang_bang, into_stops, spinning, "
+                             "held_still, fast_commands, passive, aggressive) gives both teams that style and draws the "
+                             "conditions. It overrides --fps and --encoder-rate; the bag gets it as generator_style.json")
 
 
 def options_from(args: argparse.Namespace) -> GameOptions:

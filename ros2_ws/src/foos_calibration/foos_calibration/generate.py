@@ -15,7 +15,7 @@ import argparse
 import json
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -29,7 +29,7 @@ from foos_core.table_params import load_params
 from foos_sim.effects import EFFECT_NAMES, MODEL_EFFECT_NAMES, EffectError
 from foos_sim.model_builder import ball_model_from_params
 
-from . import games
+from . import game_styles, games
 from .hidden_forces import BallBody, HiddenEffects, ball_wrench, world_spin
 
 CONTROL_STEPS = 20  # physics steps between force updates (1 ms at 20 kHz)
@@ -322,11 +322,22 @@ def main(argv: Sequence[str] | None = None) -> int:
                 rng = np.random.default_rng(args.seed + 1_000_003)
                 names = rng.choice(games.DRIVE_EFFECTS, size=min(args.random, len(games.DRIVE_EFFECTS)), replace=False)
                 effects = [games.random_drive_effect(str(n), rng) for n in names]
-            game = games.generate_game(args.bag, effects, games.options_from(args))
+            options, style = games.options_from(args), None
+            if args.style is not None:
+                style = game_styles.draw(args.seed, args.style)
+                options = replace(options, fps=style.fps, encoder_rate=style.encoder_rate)
+            game = games.generate_game(args.bag, effects, options, style=style)
+            if style is not None:
+                game_styles.write_style(style, args.bag)
             if args.truth:
-                Path(args.truth).write_text(json.dumps({"effects": effects, "seed": args.seed}, indent=2))
+                Path(args.truth).write_text(json.dumps({"effects": effects, "seed": args.seed,
+                                                        **({"style": style.as_dict()} if style else {})}, indent=2))
             print(games.describe(game, args.bag))
+            if style is not None:
+                print(style.describe())
             return 0
+        if args.style is not None:
+            raise ValueError("--style is for games: add --game")
         if any(e["name"] in games.DRIVE_EFFECTS for e in effects):  # a free roll has no drives to hide them in
             raise ValueError("drive effects (rod_*) are hidden in games: add --game")
         if any(e["name"] in games.CAMERA_EFFECTS for e in effects):  # found against the encoders' clock
@@ -342,7 +353,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         write_bag(recording, args.bag)
         if args.truth:
             Path(args.truth).write_text(json.dumps({"effects": effects, "seed": args.seed}, indent=2))
-    except (ValueError, KeyError, OSError, games.GameError) as error:
+    except (ValueError, KeyError, OSError, games.GameError, game_styles.StyleError) as error:
         print(f"generate_measured: {str(error).splitlines()[0] if str(error) else type(error).__name__}", file=sys.stderr)
         return 2
     except Exception as error:  # BagError and friends: one line, no traceback

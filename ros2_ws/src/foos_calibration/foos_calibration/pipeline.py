@@ -14,15 +14,16 @@ import yaml
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
-from . import figures
+from . import effect_gain, figures, surrogate, table_gain
 from . import rods as rod_drives
 from .bounces import fit_restitution, fold_restitution
 from .evaluate import HORIZONS, choose_starts, errors_of, estimate_states, predict, summary
 from .figure_contacts import JointTrack, for_game
+from .fitting import SegmentBatch, fit
 from .game_ball import camera_and_figures
 from .game_data import Encoders, drive_model
 from .mjsim import base_effect_names, effects_list, params_with, restitution_of, theta_of
-from .select import select_effects
+from .select import free_indices, select_effects
 from .tracks import DataError, analyse, validate
 from .unexplained import FAR_ABOVE, FIGURE_FILE, find_unexplained, prediction_floor, unexplained_predictions
 
@@ -109,6 +110,7 @@ def _rods_only(rods, reason: str, out_dir: Path, options: Options, bag: str, sta
     effects = [{**e, "description": rod_drives.describe(e)} for e in rods.effects]
     report = {"effects": effects, "baseline": {"median_error_mm_1s": None}, "calibrated": {"median_error_mm_1s": None},
               "params_file": str(params_file.resolve()), "ball_skipped": reason, "rods": rods.block,
+              "rejected": _rejected(None, None, rods),
               "unexplained": [],  # the ball was not judged: `ball_skipped` says why, and the summary says so
               "data": {"bag": bag}, "runtime_s": round(time.monotonic() - started, 1),
               "cpu_s": round(time.process_time() - cpu_started, 1)}
@@ -145,6 +147,8 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
         raise DataError(f"too little rolling data: {len(measured.segments)} rolling segments of at least 0.25 s "
                         f"(need {MIN_SEGMENTS}); record more rolls")
     selection = select_effects(measured.segments, measured.noise, theta_base, geometry, progress)
+    progress("measuring each rolling effect's held-out gain")
+    _judge_gains(measured, selection, theta_base, options.seed, progress)
     modelled = list(dict.fromkeys(kept + selection.effects))  # base effects, refitted or kept, and new ones
     rolling_effects = effects_list(modelled, selection.fit.theta)
     progress("fitting wall restitution on MuJoCo replays of the bounces")
@@ -225,7 +229,8 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
         "params_file": str(params_file.resolve()),
         "unexplained": unexplained,
         "noise_floor": noise_floor,
-        "rejected": {**selection.rejected, **({} if restitution.coefficient is not None else {"wall_restitution": restitution.evidence})},
+        "not_checked": not_checked(rods is not None, encoders is not None),
+        "rejected": _rejected(selection, restitution, rods, game),
         "data": {
             "bag": bag, "detections": int(len(t)), "duration_s": round(float(t[-1] - t[0]), 2),
             "tracks": len(measured.tracks), "rolling_segments": len(measured.segments),
@@ -271,6 +276,65 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
     rods_section = rod_drives.markdown(rods.block, rods.effects) if rods is not None else ""
     (out_dir / "report.md").write_text(markdown(report, nominal_rolling, nominal_e) + rods_section)
     return report
+
+
+def _judge_gains(measured, selection, theta_base, seed, progress) -> None:
+    """Nothing named without a held-out gain (table_gain): a named rolling effect that does not lower the ball's held-out
+    error on the data it touches, alone and in the final set, moves to `selection.rejected` with its gain, its
+    parameters back at the base table's (the others are not refitted)."""
+    def build(subset):
+        return [_without(theta, [n for n in selection.effects if n not in subset], theta_base) for theta in selection.fold_theta]
+
+    _, gains, refused = table_gain.judge(measured.segments, build, list(selection.effects), seed, progress)
+    for name, evidence in refused.items():
+        selection.rejected[name] = {**selection.evidence.pop(name, {}), **evidence}
+        selection.effects.remove(name)
+        selection.fold_theta = [_without(theta, [name], theta_base) for theta in selection.fold_theta]
+    if refused:  # the rest refitted on all the data without what was refused
+        theta = _without(selection.fit.theta, list(refused), theta_base)
+        selection.fit = fit(SegmentBatch(measured.segments), free_indices(selection.effects), theta, selection.fit.states)
+    for name, gain in gains.items():
+        selection.evidence.setdefault(name, {})["gain"] = gain
+
+
+def not_checked(drives: bool, encoders: bool) -> list[str]:
+    """What a recording without rod encoders or commands (a camera alone) does not let calibrate check."""
+    out = []
+    if not drives:
+        out.append("the rod drives (rod_latency, rod_speed_limit, rod_acceleration_limit): no /joint_states with both "
+                   "teams' rod commands")
+    if not encoders:
+        out += ["camera_latency: no /joint_states to time the ball's touches of the figures against",
+                "figure_restitution: no /joint_states to pose the figures",
+                "figure contacts: inferred from the ball's path alone (sudden velocity changes near a rod line), so a "
+                "touch that hardly changes the ball's velocity may stay inside a rolling segment"]
+    return out
+
+
+def _rejected(selection, restitution, rods, game=None) -> dict:
+    """The report's `rejected`: candidates tried and not named, with their evidence (and the gain rule's reason)."""
+    out = {} if restitution is None or restitution.coefficient is not None else {"wall_restitution": restitution.evidence}
+    out.update(selection.rejected if selection is not None else {})
+    if game is not None:  # a game's camera latency and figure restitution, fitted and not named
+        for name, finder in (("camera_latency", game.camera), ("figure_restitution", game.figures)):
+            if not finder.effects and "gain" in finder.evidence:
+                out[name] = finder.evidence
+    for effect in (rods.refused if rods is not None else []):
+        entry = {"params": effect["params"], **effect["evidence"]}
+        if effect["name"] in out:  # another drive selection refused under the same name
+            out[effect["name"]].setdefault("also", []).append(entry)
+        else:
+            out[effect["name"]] = entry
+    return out
+
+
+def _without(theta: np.ndarray, names: list[str], theta_base: np.ndarray) -> np.ndarray:
+    """theta with the parameters of `names` back at the base table's."""
+    out = theta.copy()
+    for name in names:
+        idx = list(surrogate.EFFECT_PARAMS[name])
+        out[idx] = theta_base[idx]
+    return out
 
 
 def _plain(value):
@@ -325,6 +389,8 @@ def plain_summary(report: dict) -> str:
                              f"(held-out, {c.get('starts', '?')} starts)")
     if report.get("ball_skipped"):
         lines.append(f"The ball was NOT calibrated: {report['ball_skipped']}")
+    for item in report.get("not_checked") or []:
+        lines.append(f"Not checked: {item}")
     lines.append(f"Calibrated model: {report['params_file']}")
     return "\n".join(lines)
 
@@ -338,7 +404,8 @@ def markdown(report: dict, nominal_rolling: float, nominal_e: float) -> str:
     unexplained = report.get("unexplained") or []
     if report["effects"]:
         out += [f"- **{e['name']}**: {e['description']} (held-out evidence: "
-                f"{e['evidence'].get('held_out_error_drop_noise_variances', 'n/a')} noise variances)" for e in report["effects"]]
+                f"{e['evidence'].get('held_out_error_drop_noise_variances', 'n/a')} noise variances; held-out gain: "
+                f"{effect_gain.describe(e['evidence'].get('gain'))})" for e in report["effects"]]
     elif unexplained:
         out.append("No candidate earned held-out evidence, but the nominal model does **not** explain the data (below).")
     else:
@@ -349,6 +416,8 @@ def markdown(report: dict, nominal_rolling: float, nominal_e: float) -> str:
                 "| where | residual (mm) | noise (mm) | ratio |", "|---|---|---|---|"]
         out += [f"| {u['where']} | {u['residual_mm']} | {u['noise_mm']} | {u['ratio']} |" for u in unexplained]
         out += ["", f"![unexplained]({FIGURE_FILE})" if report.get("figures") else ""]
+    if report.get("not_checked"):
+        out += ["", "## What this recording did not let calibrate check", ""] + [f"- {item}" for item in report["not_checked"]]
     if report.get("rejected"):
         out += ["", "Candidates tried and not named:", ""]
         out += [f"- {k}: {v}" for k, v in report["rejected"].items()]

@@ -42,6 +42,8 @@ from foos_sim import scurve
 from foos_sim.drive_limits import DriveLimits, Servo, drive_limits_from_effects, predict_positions
 from foos_sim.drive_profiles import ProfileLimits
 
+from . import drive_gain, effect_gain
+
 COMPONENTS = ("latency", "speed", "acceleration")
 EFFECT_OF = {"latency": "rod_latency", "speed": "rod_speed_limit", "acceleration": "rod_acceleration_limit"}
 STRETCH = 4.0  # s: folds alternate stretches of this length
@@ -117,6 +119,7 @@ class RodResult:
     effects: list[dict]
     block: dict  # report.json "rods"
     fold_limits: list[DriveLimits] = field(default_factory=list)
+    refused: list[dict] = field(default_factory=list)  # effects the selection named that earned no held-out gain
 
 
 # --- the shaped velocity ---------------------------------------------------------------------------
@@ -504,7 +507,8 @@ def model_velocity(data: DriveData, model: DriveModel, limits: DriveLimits, time
 
 
 def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[DriveLimits]) -> tuple[np.ndarray, np.ndarray]:
-    """(starts, horizons, 16) absolute position errors 0.1 and 0.25 s ahead, and each start's fold.
+    """(starts, horizons, 16) absolute position errors 0.1 and 0.25 s ahead, and each start's stretch (its fold
+    is the stretch's parity).
 
     A start on fold k is predicted with fold_limits[1 - k] (fitted on the other fold). The velocity at the
     start is the model's own, from the commands before it (the encoders' velocity is too noisy to start
@@ -512,7 +516,8 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
     span = data.t[-1] - max(HORIZONS)
     t0 = np.arange(data.t[0] + 0.5, span, START_SPACING)
     t0 = data.t[np.searchsorted(data.t, t0)]
-    folds = (np.floor((t0 - data.t[0]) / STRETCH).astype(int) % 2)
+    stretch = np.floor((t0 - data.t[0]) / STRETCH).astype(int)
+    folds = stretch % 2
     errors = np.full((len(t0), len(HORIZONS), len(JOINT_NAMES)), np.nan)
     for k in (0, 1):
         rows = np.flatnonzero(folds == k)
@@ -539,7 +544,7 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
                 reach = np.array([np.abs(data.position[i:j + 1, cols]).max(axis=0) for i, j in zip(first, last)])
                 near = reach > model.travel[cols] - STOP_MARGIN  # at a stop somewhere on the way
                 errors[rows[:, None], h, cols[None, :]] = np.where(near, np.nan, error)
-    return errors, folds
+    return errors, stretch
 
 
 def gain_summary(errors: np.ndarray, seed: int = 0, n_boot: int = 1000) -> dict:
@@ -601,6 +606,9 @@ def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None]
                 per_drive[JOINT_NAMES.index(j)]["evidence"][component]["held_out_error_drop_noise_variances"] for j in drives)), 1),
             "per_drive": {j: per_drive[JOINT_NAMES.index(j)]["evidence"][component] for j in drives},
         }
+    progress("judging each drive effect's held-out gain, alone and in the final set")
+    effects, fold_effects, refused = drive_gain.judge_gains(
+        lambda fold_sets: prediction_errors(data, model, [limits_of(e) for e in fold_sets]), effects, fold_effects, seed)
     progress("predicting joint positions 0.1 and 0.25 s ahead on held-out stretches")
     nominal = limits_of([])
     nominal_errors, _ = prediction_errors(data, model, [nominal, nominal])
@@ -615,8 +623,8 @@ def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None]
                  "commands": {team: int(len(data.command_t[team])) for team in TEAMS}},
         "baseline": gain_summary(nominal_errors, seed),
         "calibrated": gain_summary(calibrated_errors, seed),
-        "per_drive": {JOINT_NAMES[j]: {c: _round(_physical(c, d["values"][c][0], j, model)) for c in d["chosen"]}
-                      for j, d in enumerate(per_drive) if d["chosen"]},
+        "per_drive": _per_drive_named(per_drive, model, limits_of(effects)),
+        "refused_for_no_gain": refused,
         "per_drive_error_0_25s": per_drive_errors(nominal_errors, calibrated_errors),
         "rejected": rejected,
         "method": {
@@ -635,7 +643,18 @@ def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None]
                     "(soft stops, not modelled)",
         },
     }
-    return RodResult(effects, block, [limits_of(e) for e in fold_effects])
+    return RodResult(effects, block, [limits_of(e) for e in fold_effects], refused)
+
+
+def _per_drive_named(per_drive: list[dict], model: DriveModel, final: DriveLimits) -> dict:
+    """Each drive's fitted components that a kept effect carries (a refused effect's drives name nothing)."""
+    carried = {"latency": final.delay > 0, "speed": np.isfinite(final.speed), "acceleration": np.isfinite(final.acceleration)}
+    out = {}
+    for j, d in enumerate(per_drive):
+        own = {c: _round(_physical(c, d["values"][c][0], j, model)) for c in d["chosen"] if carried[c][j]}
+        if own:
+            out[JOINT_NAMES[j]] = own
+    return out
 
 
 def describe(effect: dict) -> str:
@@ -659,7 +678,8 @@ def markdown(block: dict, effects: list[dict]) -> str:
     out = ["", "## The rod drives", ""]
     named = [e for e in effects if e["name"] in EFFECT_OF.values()]
     out += [f"- **{e['name']}** {e['params']}: {describe(e)} (held-out evidence "
-            f"{e['evidence']['held_out_error_drop_noise_variances']} noise variances over {e['evidence']['drives_named']} drive(s))"
+            f"{e['evidence']['held_out_error_drop_noise_variances']} noise variances over {e['evidence']['drives_named']} drive(s); "
+            f"held-out gain {effect_gain.describe(e['evidence'].get('gain'))})"
             for e in named] or ["Nothing: the nominal drives explain the joint states."]
     out += ["", "Joint position error on held-out stretches (median, 95 % bootstrap interval), nominal -> calibrated:", "",
             "| axis | horizon | nominal | calibrated |", "|---|---|---|---|"]
