@@ -7,7 +7,7 @@ import pytest
 
 from foos_core.camera_model import CameraConfigError
 from foos_sim.camera.errors import RenderError
-from foos_sim.camera.live import LiveCamera, LiveCameraConfig
+from foos_sim.camera.live import LiveCamera, LiveCameraConfig, ros_distortion_model
 from foos_sim.sim_runner import CameraFrame, Detection, RunnerConfig, SimRunner, StateSample
 from foos_sim.simulation import TableSimulation
 
@@ -48,8 +48,8 @@ def test_the_frame_shows_the_ball_where_the_camera_projects_it():
     assert grey[int(round(v)), int(round(u))] > 180
     assert grey[int(round(v)) + 12, int(round(u))] < 150
     intrinsics = camera.intrinsics
-    assert (intrinsics.width, intrinsics.height, intrinsics.distortion_model) == (320, 240, "plumb_bob")
-    np.testing.assert_allclose(intrinsics.k, camera.camera.camera_matrix())
+    assert (intrinsics.width, intrinsics.height, ros_distortion_model(intrinsics)) == (320, 240, "plumb_bob")
+    np.testing.assert_allclose(intrinsics.camera_matrix, camera.camera.camera_matrix())
 
 
 @pytest.mark.parametrize("config, error, reason", [

@@ -7,7 +7,7 @@ limit; the nominal servo then follows with its own acceleration limit (force / i
     v(t) = y(t - delay - lag),  y: the commands clipped to the speed limit, rate-limited at
                                    min(acceleration limit, force / inertia)
 
-On the jerk-limited drives (the default, foos_sim.drive_profiles) y is the drives' own S-curve instead, at
+On the jerk-limited drives (params/robot_table.yaml, foos_sim.drive_profiles) y is the drives' own S-curve instead, at
 min(acceleration limit, the drive's) and its jerk limit; the lag is half a fast physics step (DriveModel.lag).
 
 y is exact for commands that hold between arrivals (a recurrence over the command times only), so a

@@ -74,7 +74,8 @@ class CameraView:
         states = self._states
         if when <= states[0][0]:
             return states[0][1], states[0][2]
-        for (t0, p0, v0), (t1, p1, v1) in zip(reversed(list(states)[:-1]), reversed(list(states)[1:])):
+        for newer in range(len(states) - 1, 0, -1):  # from the newest: the latency is a few records back
+            (t0, p0, v0), (t1, p1, v1) = states[newer - 1], states[newer]
             if t0 <= when <= t1:
                 share = 0.0 if t1 == t0 else (when - t0) / (t1 - t0)
                 return p0 + share * (p1 - p0), v0 + share * (v1 - v0)

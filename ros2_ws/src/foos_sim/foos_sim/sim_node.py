@@ -60,7 +60,7 @@ from foos_core.nodes import run_node
 from foos_core.table_params import ParamsError
 
 from .camera.errors import RenderError
-from .camera.live import LiveCamera, LiveCameraConfig
+from .camera.live import LiveCamera, LiveCameraConfig, ros_distortion_model
 from .sim_runner import CameraFrame, Detection, Goal, RunnerConfig, SimRunner, StateSample
 from .simulation import CommandError, TableSimulation
 
@@ -230,11 +230,11 @@ class SimNode(Node):
         info = CameraInfo()
         info.header.frame_id = CAMERA_FRAME
         info.height, info.width = intrinsics.height, intrinsics.width
-        info.distortion_model = intrinsics.distortion_model
-        info.d = [float(v) for v in intrinsics.d]
-        info.k = [float(v) for v in intrinsics.k.ravel()]
+        info.distortion_model = ros_distortion_model(intrinsics)
+        info.d = [float(v) for v in np.asarray(intrinsics.dist_coeffs).ravel()]
+        info.k = [float(v) for v in intrinsics.camera_matrix.ravel()]
         info.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-        info.p = [float(v) for v in np.hstack([intrinsics.k, np.zeros((3, 1))]).ravel()]
+        info.p = [float(v) for v in np.hstack([intrinsics.camera_matrix, np.zeros((3, 1))]).ravel()]
         return image, info
 
     def publish_frame(self, frame: CameraFrame) -> None:

@@ -13,12 +13,12 @@ Two physics (foos_sim.model_builder.PHYSICS, `solver.physics` in the parameter f
 argument): `fast` (the default, 500 Hz, impacts resolved by foos_sim.impacts between MuJoCo's collision
 and its forces) and `reference` (the 20 kHz springs, stepped by mj_step alone).
 
-The drives (`rods.drive` in the parameter file): `jerk_limited` (the default, a robot table's) follow each
+The drives (`rods.drive` in the parameter file): `jerk_limited` (a robot table's: params/robot_table.yaml) follow each
 command on an S-curve within a speed, an acceleration and a jerk limit (foos_sim.drive_profiles), the servo
 targets set before every fast step (the setpoint at its middle, the rod started there: foos_sim.drives.
 FollowingDrives) and every reference chunk (0.25 ms, the setpoint the servo's time constant ahead); the drive
 effects act inside the generator. `servo` (params/servo_table.yaml, the former drives) are velocity servos on
-the command itself; there the drive effects (rod_latency, rod_speed_limit, rod_acceleration_limit) sit between
+the command itself, the default; there the drive effects (rod_latency, rod_speed_limit, rod_acceleration_limit) sit between
 set_command and the servos (foos_sim.drive_limits.DriveShaper): the fast physics updates the servo targets
 before every 2 ms step; the reference updates them at its chunk boundaries, only when a delayed command falls
 due (within a chunk of its time) and every RAMP_UPDATE while a target ramps. Without drive effects nothing of
@@ -127,7 +127,7 @@ class TableSimulation:
         self._all_ctrl = np.concatenate([self._team_ctrl[t] for t in TEAMS])
         drive_limits = drive_limits_from_effects(self.params.get("effects"))
         nominal_profiles = profile_limits(self.params)
-        # Jerk-limited drives (the default) plan every command through their generators, effects or not; the
+        # Jerk-limited drives (params/robot_table.yaml) plan every command through their generators, effects or not; the
         # plain servos (params/servo_table.yaml) only shape commands when the file has drive effects.
         self._profiles = None
         if nominal_profiles is not None:

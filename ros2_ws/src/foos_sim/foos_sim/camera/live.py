@@ -14,7 +14,7 @@ from typing import Optional
 
 import numpy as np
 
-from foos_core.camera_model import CameraConfig, load_camera
+from foos_core.camera_model import Intrinsics, load_camera
 from foos_core.markers import load_markers
 
 from ..model_builder import build_mjcf
@@ -48,23 +48,10 @@ class LiveCameraConfig:
             raise RenderError(f"camera noise must be zero or positive, got {self.noise}")
 
 
-@dataclass(frozen=True)
-class CameraIntrinsics:
-    """What sensor_msgs/CameraInfo says of the images: size, K, the lens model and its coefficients."""
-
-    width: int
-    height: int
-    k: np.ndarray  # (3, 3)
-    distortion_model: str  # "plumb_bob" (OpenCV k1, k2, p1, p2, k3) or "equidistant" (cv2.fisheye k1..k4)
-    d: np.ndarray
-
-
-def camera_intrinsics(camera: CameraConfig) -> CameraIntrinsics:
-    d = camera.dist_coeffs().ravel()
-    if camera.fisheye:
-        return CameraIntrinsics(camera.width, camera.height, camera.camera_matrix(), "equidistant", d)
-    return CameraIntrinsics(camera.width, camera.height, camera.camera_matrix(), "plumb_bob",
-                            np.pad(d, (0, max(0, 5 - len(d))))[:5])
+def ros_distortion_model(intrinsics: Intrinsics) -> str:
+    """sensor_msgs/CameraInfo's name of the lens model: plumb_bob (OpenCV k1, k2, p1, p2, k3) or equidistant
+    (cv2.fisheye k1..k4)."""
+    return "equidistant" if intrinsics.fisheye else "plumb_bob"
 
 
 class LiveCamera:
@@ -75,7 +62,7 @@ class LiveCamera:
         self.config = config
         self.camera = load_camera(config.camera).with_(width=int(config.width), height=int(config.height),
                                                         fps=float(config.rate))
-        self.intrinsics = camera_intrinsics(self.camera)
+        self.intrinsics = self.camera.intrinsics()  # what /camera/camera_info says of the images
         options = RenderOptions(camera=self.camera, ball_colour=BALL_COLOURS[config.ball_colour], noise=config.noise,
                                 shadows=config.shadows, seed=config.seed)
         self._renderer = SceneRenderer(build_mjcf(params_file), load_markers(), options)
