@@ -13,7 +13,7 @@ from foos_sim import command_limits
 
 from .commands import run_command
 from .controller import missing_joints
-from .game import analyze_game, compare_games, play_game
+from .game import analyze_game, compare_games, play_game, pool_games
 from .policies import PolicyError, make_policy
 
 DESCRIPTION = """\
@@ -45,7 +45,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--compare-opponent", default=None,
                    help="the policy of the other team in the in-process game, as its policy_node played in the bag "
                         "(e.g. scripted; default: that team's rods stand still)")
-    p.add_argument("--seed", type=int, default=0, help="serve seed of the in-process game (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="serve seed of the first in-process game (default 0)")
+    p.add_argument("--compare-games", type=int, default=4,
+                   help="in-process games of the bag's duration, serve seeds SEED, SEED+1, ..., pooled into the "
+                        "reference the bag is compared with (default 4: one short game is too noisy a reference)")
     return p.parse_args(argv)
 
 
@@ -70,10 +73,18 @@ def evaluate_bag(args) -> dict:
     stats["bag"] = str(path)
     stats["goal_topic"] = has_goals
     if args.compare_policy:
-        policy = make_policy(args.compare_policy, params, command_limits(params), seed=args.seed)
-        opponent = make_policy(args.compare_opponent, params, command_limits(params), seed=args.seed + 1) if args.compare_opponent else None
-        in_process = play_game(policy, stats["duration_s"], seed=args.seed, team=args.team, opponent=opponent,
-                               params_file=args.params_file)
+        if args.compare_games < 1:
+            raise ValueError(f"--compare-games must be at least 1, got {args.compare_games}")
+        limits = command_limits(params)
+        games = []
+        for seed in range(args.seed, args.seed + args.compare_games):
+            # fresh policies per game: a policy may keep state (a filter, a latency queue) across steps
+            policy = make_policy(args.compare_policy, params, limits, seed=seed)
+            opponent = make_policy(args.compare_opponent, params, limits, seed=seed + 1) if args.compare_opponent else None
+            games.append(play_game(policy, stats["duration_s"], seed=seed, team=args.team, opponent=opponent,
+                                   params_file=args.params_file))
+        in_process = pool_games(games)
+        in_process["per_game"] = games
         stats["in_process"] = in_process
         stats["comparison"] = compare_games(stats, in_process)
     return stats
@@ -89,7 +100,7 @@ def main(argv=None) -> int:
           f" shots home {stats['shots_home']} (mean {stats['shot_speed_home_mean'] or 0:.2f} m/s)")
     if "comparison" in stats:
         c = stats["comparison"]
-        print(f"in-process {c['duration_b_s']:.1f} s: goals home {c['home_goals_b']} - away {c['away_goals_b']}, touches home "
+        print(f"in-process ({stats['in_process']['games']} games) {c['duration_b_s']:.1f} s: goals home {c['home_goals_b']} - away {c['away_goals_b']}, touches home "
               f"{c['home_touches_b']} (bag: {c['home_goals_a']} - {c['away_goals_a']}, {c['home_touches_a']}); p goals "
               f"{c['home_goals_p_value']:.3f}, p goals against {c['away_goals_p_value']:.3f}, p touches {c['home_touches_p_value']:.3f}: "
               f"{'consistent' if c['consistent'] else 'NOT consistent'}")

@@ -91,6 +91,7 @@ class TrackerNode(Node):
         self.state_pub = self.create_publisher(Odometry, BALL_STATE_TOPIC, 50)
         self.create_subscription(Image, CAMERA_IMAGE_TOPIC, self.on_image, 10)
         self.warned_tags = False
+        self.logged_start = False
 
     def on_joint_states(self, msg: JointState) -> None:
         order = joint_order(msg.name, allow_missing=True)
@@ -128,6 +129,11 @@ class TrackerNode(Node):
             self.warned_tags = True
         if detection is None:
             return
+        if not self.logged_start:  # how long the start took: the tag fit, then the ball's colour found
+            stats = self.tracker.stats
+            self.get_logger().info(f"tracking: first ball at {t:.3f} s, frame {stats.frames} "
+                                   f"({stats.frames - stats.frames_with_mapping} before the tag fit)")
+            self.logged_start = True
         point = PointStamped()
         point.header.stamp = msg.header.stamp
         point.header.frame_id = TABLE_FRAME
