@@ -100,7 +100,8 @@ def main(argv=None) -> int:
           f" shots home {stats['shots_home']} (mean {stats['shot_speed_home_mean'] or 0:.2f} m/s)")
     if "comparison" in stats:
         c = stats["comparison"]
-        print(f"in-process ({stats['in_process']['games']} games) {c['duration_b_s']:.1f} s: goals home {c['home_goals_b']} - away {c['away_goals_b']}, touches home "
+        print(f"in-process ({stats['in_process']['games']} games) {c['duration_b_s']:.1f} s: "
+              f"goals home {c['home_goals_b']} - away {c['away_goals_b']}, touches home "
               f"{c['home_touches_b']} (bag: {c['home_goals_a']} - {c['away_goals_a']}, {c['home_touches_a']}); p goals "
               f"{c['home_goals_p_value']:.3f}, p goals against {c['away_goals_p_value']:.3f}, p touches {c['home_touches_p_value']:.3f}: "
               f"{'consistent' if c['consistent'] else 'NOT consistent'}")
