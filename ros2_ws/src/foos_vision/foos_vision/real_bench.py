@@ -285,16 +285,16 @@ def track_clip(clip: Clip, params_file: Optional[str] = None) -> tuple[dict[int,
 
 
 def find_stills(clip: Clip, params_file: Optional[str] = None) -> tuple[dict[int, tuple[float, float]], dict]:
-    """Per frame, the best ball candidate of that frame alone (StillBallFinder), or none."""
+    """Per frame, the ball StillBallFinder reports in that frame alone (its best candidate, if clear enough), or none."""
     finder = StillBallFinder(params_file)
     found: dict[int, tuple[float, float]] = {}
     no_field = 0
     started = time.process_time()
     for k, _, image in _frames_of(clip, DEFAULT_FPS):
-        field_, candidates = finder.find(image)
+        field_, ball = finder.ball(image)
         no_field += field_ is None
-        if candidates:
-            found[k] = (candidates[0].u, candidates[0].v)
+        if ball is not None:
+            found[k] = (ball.u, ball.v)
     elapsed = time.process_time() - started
     return found, {"fps_track": len(clip.frames) / elapsed, "frames": len(clip.frames), "no_field": no_field}
 

@@ -1,14 +1,27 @@
 """The ball in one frame, with nothing else known: no tags, no corners, no colour, no frames before it.
 
 What a ball is, in one picture of a table: the playing field is the largest stretch of one colour in the middle of
-the image (the felt); the ball lies on it, is round, is as wide as the table's ball is in the felt's own scale
-(field_size / ball diameter), and is lighter than the felt (every ball colour in play, white, yellow, yellow-green,
-orange and cork, is lighter than green, blue or black felt, while the figures' heads and the shadows are darker or
-the same). Lines on the felt are thin and are opened away at the ball's scale; a figure is taller than round.
+the image (the felt); the ball lies on it, is as wide as the table's ball is in the felt's own scale (field_size /
+ball diameter), and is lighter than the felt (every ball colour in play, white, yellow, yellow-green, orange and
+cork, is lighter than green, blue or black felt, while the figures' heads and the shadows are darker or the same).
+
+Candidates are the peaks of a disc-minus-ring filter on how much lighter than the felt around it each pixel is,
+at the ball's predicted radius (a disc as wide as the ball and lighter than its surroundings answers most; a line, a
+rod's highlight or a lit wall is as light in the ring as in the disc, and a dark neighbour does not help, since only
+light above the felt counts). Each is scored on what only a ball has all of:
+- its shape: the correlation of its light with a disc of the ball's size in a ring of felt (a line, a streak or a
+  lit edge correlates poorly);
+- its outline: the brightness falls off outward all around it (the share of 16 directions with such an edge);
+  a streak has edges on two sides only;
+- its colour is its own: figures wear a team's colour, one colour on a dozen bodies across the field, while the
+  ball is one ball's area of its colour. A candidate whose (chromatic) colour covers several balls' worth of the
+  field is a figure.
+The best candidate is the ball when its score reaches MIN_SCORE; below it the frame has no ball to report.
 
 StillBallFinder.find(bgr) returns the field it found (a convex outline and the ball's radius in pixels there) and
-the ball candidates, best first. The real-footage bench (real_bench) scores it on single frames with labels; the
-tracker does not use it (a video has motion and the tags' mapping, see motion_ball).
+the ball candidates, best first; ball(bgr) the one it would report. The real-footage bench (real_bench) scores it
+on single frames with labels; the tracker does not use it (a video has motion and the tags' mapping, see
+motion_ball).
 """
 from __future__ import annotations
 
@@ -26,9 +39,17 @@ FELT_CHROMA_TOL = 6.0  # Lab a/b levels around the felt's mode that are still fe
 FELT_LIGHT_TOL = 45.0  # L levels: the felt's light falls off toward the walls
 MIN_FELT_FILL = 0.5  # of the felt's closed stretch that is felt-coloured
 MIN_FIELD_SHARE = 0.08  # of the image: less, and the felt found is not a table's playing field
-AREA_RANGE = (0.35, 1.8)  # a candidate's area over the expected disc's (part hidden by a foot; blur grows it)
-MIN_ROUNDNESS = 0.55  # minor over major axis of the blob's second moments (a line, a leg: far less)
-MIN_LIGHTER = 12.0  # L levels the ball's core is above the felt around it
+SCALES = (0.75, 0.9)  # of the predicted radius: the lit part of a ball (its shaded underside is the felt's light)
+RING = (1.3, 1.9)  # radii of the ring of surroundings, in disc radii
+MIN_PEAK = 6.0  # L levels: the disc's light above the ring's, at least
+MAX_PEAKS = 60  # the strongest peaks scored per frame
+EDGE_DIRECTIONS = 16  # directions the outline is looked for in
+EDGE_RADII = (0.6, 1.4, 7)  # the outline is searched between these radii (of the predicted radius), in 7 steps
+MIN_EDGE = 4.0  # L levels per px: an edge, falling outward (Sobel of the lightly smoothed L, per px)
+CHROMATIC = 20.0  # Lab a/b levels from grey: a colour (a team's), not white, grey or black
+TEAM_TOL = 8  # Lab a/b levels: the same colour
+TEAM_BALLS = 4.0  # a colour covering this many balls' areas of the field is half way to a team's (score halved)
+MIN_SCORE = 0.6  # below this the best candidate is not reported: nothing in the frame is clearly a ball
 
 
 @dataclass
@@ -43,10 +64,11 @@ class FeltField:
 class StillCandidate:
     u: float
     v: float
-    radius: float  # px, sqrt(area / pi) of the blob, full frame
-    area_ratio: float
-    roundness: float
-    lighter: float  # L levels above the local felt
+    radius: float  # px, the disc's radius that answered best, full frame
+    contrast: float  # L levels: the disc's light above the felt, minus the ring's
+    shape: float  # correlation of the light with a disc in a ring, -1..1
+    outline: float  # share of the directions with an edge falling outward, 0..1
+    team_balls: float  # balls' areas of the field in this candidate's colour (0: not a chromatic colour)
     score: float
 
 
@@ -97,6 +119,12 @@ class StillBallFinder:
         field = FeltField(hull.astype(float) / scale, (l0, a0, b0), radius / scale, share)
         return field, region
 
+    def ball(self, bgr: np.ndarray) -> tuple[Optional[FeltField], Optional[StillCandidate]]:
+        """The field and the candidate reported as the ball: the best, when its score reaches MIN_SCORE."""
+        field, candidates = self.find(bgr)
+        best = candidates[0] if candidates and candidates[0].score >= MIN_SCORE else None
+        return field, best
+
     def find(self, bgr: np.ndarray) -> tuple[Optional[FeltField], list[StillCandidate]]:
         """The field and the ball candidates in it, best first (empty when no felt is found)."""
         scale = WORK_WIDTH / bgr.shape[1]
@@ -106,39 +134,124 @@ class StillBallFinder:
         if field is None:
             return None, []
         r = field.ball_radius_px * scale
-        light = lab[..., 0].astype(np.float32)
-        # The felt's light around each pixel: a median over a few ball widths takes no ball and no line.
-        k = min(255, max(5, int(6 * r) | 1))
-        step = max(1, int(r // 2))
-        coarse = cv2.medianBlur(small[::step, ::step] if step > 1 else small, min(k // step | 1, 255))
-        around = cv2.resize(cv2.cvtColor(coarse, cv2.COLOR_BGR2Lab)[..., 0], (light.shape[1], light.shape[0]),
-                            interpolation=cv2.INTER_LINEAR).astype(np.float32)
-        lighter = light - around
-        mask = ((lighter >= MIN_LIGHTER) & (region > 0)).astype(np.uint8)
-        # Lines and rods' highlights are thin: open them away at half the ball's width.
-        ok = max(3, int(0.9 * r) | 1)
-        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (ok, ok)))
-        n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
-        expected = math.pi * r * r
+        lighter = _lighter_than_felt(small, lab, r)
+        contrast, radius = _disc_filter(lighter, r)
+        size = max(3, int(r) | 1)
+        peaks = ((contrast == cv2.dilate(contrast, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))))
+                 & (contrast >= MIN_PEAK) & (region > 0))
+        ys, xs = np.nonzero(peaks)
+        order = np.argsort(-contrast[ys, xs])[:MAX_PEAKS]
+        light = cv2.GaussianBlur(lab[..., 0].astype(np.float32), (0, 0), 1.0)
+        gx = cv2.Sobel(light, cv2.CV_32F, 1, 0, ksize=3) / 8
+        gy = cv2.Sobel(light, cv2.CV_32F, 0, 1, ksize=3) / 8
+        team = _team_colours(lab, region, field.felt_lab, r)
         found = []
-        for i in range(1, n):
-            area = float(stats[i, cv2.CC_STAT_AREA])
-            ratio = area / expected
-            if not AREA_RANGE[0] <= ratio <= AREA_RANGE[1]:
+        for x, y in zip(xs[order], ys[order]):
+            rr = float(radius[y, x])
+            shape = _disc_correlation(lighter, x, y, rr)
+            if shape is None:
                 continue
-            x, y, bw, bh = (int(stats[i, c]) for c in (cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP, cv2.CC_STAT_WIDTH,
-                                                        cv2.CC_STAT_HEIGHT))
-            ys, xs = np.nonzero(labels[y:y + bh, x:x + bw] == i)
-            if len(xs) < 5:
-                continue
-            ev = np.linalg.eigvalsh(np.cov(np.stack([xs, ys]).astype(float)))
-            roundness = float(math.sqrt(max(ev[0], 1e-6) / max(ev[1], 1e-6)))
-            if roundness < MIN_ROUNDNESS:
-                continue
-            contrast = float(np.median(lighter[ys + y, xs + x]))
-            score = roundness * min(ratio, 1.0 / ratio) * min(1.0, contrast / (3 * MIN_LIGHTER))
-            u, v = centroids[i]
-            found.append(StillCandidate(float(u) / scale, float(v) / scale, math.sqrt(area / math.pi) / scale,
-                                        ratio, roundness, contrast, score))
+            outline = _outline(gx, gy, x, y, r)
+            team_balls = _team_balls(lab, team, x, y, rr)
+            score = shape * outline / (1.0 + (team_balls / TEAM_BALLS) ** 2)
+            found.append(StillCandidate(float(x) / scale, float(y) / scale, rr / scale, float(contrast[y, x]), shape,
+                                        outline, team_balls, score))
         found.sort(key=lambda c: -c.score)
         return field, found
+
+
+def _lighter_than_felt(small: np.ndarray, lab: np.ndarray, r: float) -> np.ndarray:
+    """How much lighter than the felt around it each pixel is (L levels, 0 where darker: a dark figure next to a
+    light spot must not make it look like a ball)."""
+    light = lab[..., 0].astype(np.float32)
+    # The felt's light around each pixel: a median over a few ball widths takes no ball and no line.
+    k = min(255, max(5, int(6 * r) | 1))
+    step = max(1, int(r // 2))
+    coarse = cv2.medianBlur(small[::step, ::step] if step > 1 else small, min(k // step | 1, 255))
+    around = cv2.resize(cv2.cvtColor(coarse, cv2.COLOR_BGR2Lab)[..., 0], (light.shape[1], light.shape[0]),
+                        interpolation=cv2.INTER_LINEAR).astype(np.float32)
+    return np.clip(light - around, 0.0, None)
+
+
+def _offsets(radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    n = int(math.ceil(radius))
+    yy, xx = np.mgrid[-n:n + 1, -n:n + 1]
+    return xx, yy, np.hypot(xx, yy)
+
+
+def _disc_filter(lighter: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel, the best over SCALES of (mean light in a disc) - (mean light in the ring around it), and the disc
+    radius that gave it."""
+    best = radius = None
+    for s in SCALES:
+        rr = r * s
+        _, _, d = _offsets(RING[1] * rr)
+        disc = (d <= rr).astype(np.float32)
+        ring = ((d > RING[0] * rr) & (d <= RING[1] * rr)).astype(np.float32)
+        answer = (cv2.filter2D(lighter, -1, disc / disc.sum(), borderType=cv2.BORDER_REPLICATE)
+                  - cv2.filter2D(lighter, -1, ring / ring.sum(), borderType=cv2.BORDER_REPLICATE))
+        if best is None:
+            best, radius = answer, np.full(answer.shape, rr, np.float32)
+        else:
+            better = answer > best
+            best = np.where(better, answer, best)
+            radius = np.where(better, np.float32(rr), radius)
+    return best, radius
+
+
+def _disc_correlation(lighter: np.ndarray, x: int, y: int, rr: float) -> Optional[float]:
+    """Correlation of the light in the disc and its ring with the ideal (1 in the disc, 0 in the ring); None where
+    the ring leaves the image."""
+    xx, yy, d = _offsets(RING[1] * rr)
+    n = xx.shape[0] // 2
+    h, w = lighter.shape
+    if x - n < 0 or y - n < 0 or x + n >= w or y + n >= h:
+        return None
+    patch = lighter[y - n:y + n + 1, x - n:x + n + 1]
+    inside = d <= rr
+    support = inside | ((d > RING[0] * rr) & (d <= RING[1] * rr))
+    values, ideal = patch[support], inside[support].astype(np.float32)
+    if values.std() <= 1e-6:
+        return 0.0
+    return float(np.corrcoef(values, ideal)[0, 1])
+
+
+def _outline(gx: np.ndarray, gy: np.ndarray, x: int, y: int, r: float) -> float:
+    """The share of EDGE_DIRECTIONS in which, somewhere between EDGE_RADII, the light falls outward by MIN_EDGE a
+    pixel or more, more than it changes sideways (a ball's rim; partly hidden or blurred, still most of it)."""
+    angles = (np.arange(EDGE_DIRECTIONS) + 0.5) * 2 * math.pi / EDGE_DIRECTIONS
+    radii = np.linspace(EDGE_RADII[0] * r, EDGE_RADII[1] * r, EDGE_RADII[2])
+    ca, sa = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    px = np.rint(x + radii[None, :] * ca).astype(int)
+    py = np.rint(y + radii[None, :] * sa).astype(int)
+    h, w = gx.shape
+    inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
+    px, py = np.clip(px, 0, w - 1), np.clip(py, 0, h - 1)
+    gxs, gys = gx[py, px], gy[py, px]
+    inward = -(gxs * ca + gys * sa)
+    sideways = np.abs(-gxs * sa + gys * ca)
+    edge = inside & (inward > sideways) & (inward >= MIN_EDGE)
+    return float(np.mean(edge.any(axis=1)))
+
+
+def _team_colours(lab: np.ndarray, region: np.ndarray, felt_lab, r: float) -> np.ndarray:
+    """Per Lab (a, b), the field's pixels of a chromatic colour within TEAM_TOL of it that are not felt, in balls'
+    areas: the figures' team colours stand out by the dozen bodies that wear them."""
+    a, b = lab[..., 1].astype(np.int16), lab[..., 2].astype(np.int16)
+    felt = (np.abs(a - felt_lab[1]) <= FELT_CHROMA_TOL) & (np.abs(b - felt_lab[2]) <= FELT_CHROMA_TOL)
+    chromatic = (np.hypot(a - 128, b - 128) > CHROMATIC) & (region > 0) & ~felt
+    counts = np.zeros((256, 256), np.float32)
+    np.add.at(counts, (a[chromatic], b[chromatic]), 1.0)
+    side = 2 * TEAM_TOL + 1
+    return cv2.boxFilter(counts, -1, (side, side), normalize=False, borderType=cv2.BORDER_CONSTANT) / (math.pi * r * r)
+
+
+def _team_balls(lab: np.ndarray, team: np.ndarray, x: int, y: int, rr: float) -> float:
+    """The balls' areas of the field in the colour of the candidate's core (0 when it is white, grey or black)."""
+    xx, yy, d = _offsets(0.6 * rr)
+    n = xx.shape[0] // 2
+    core = lab[y - n:y + n + 1, x - n:x + n + 1][d <= 0.6 * rr].astype(np.float32)
+    a, b = (float(v) for v in np.median(core[:, 1:], axis=0))
+    if math.hypot(a - 128, b - 128) <= CHROMATIC:
+        return 0.0
+    return float(team[int(round(a)), int(round(b))])
