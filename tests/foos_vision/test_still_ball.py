@@ -1,32 +1,38 @@
-"""still_ball: the felt and a ball lighter than it in one drawn frame, nothing else given."""
+"""still_ball: the felt and the ball in one frame, nothing else given: drawn frames for each rule, and renders of the
+simulated camera (foos_sim.camera) for a ball of each colour among the rendered table's figures, rods and walls."""
 from __future__ import annotations
 
 import math
 
 import cv2
 import numpy as np
+import pytest
 
-from foos_vision.still_ball import StillBallFinder
+from foos_vision.still_ball import MIN_SCORE, TEAM_BALLS, StillBallFinder
 
 
-def drawn_still(ball=(1200, 500), ball_bgr=(235, 235, 235)):
+def drawn_still(ball=(1200, 500), ball_bgr=(235, 235, 235), heads_bgr=(30, 30, 30)):
     """A 1920x1080 frame: grey floor, a green felt 1400 x 790 px (a 1.2 x 0.68 m field at 1160 px/m), white lines,
-    dark figures' heads of the ball's size, and a ball (35 mm: 40.6 px across)."""
+    figures' heads of the ball's size, and a ball (35 mm: 40.6 px across; none when ball is None)."""
     frame = np.full((1080, 1920, 3), (90, 90, 90), np.uint8)
     cv2.rectangle(frame, (260, 145), (1660, 935), (60, 130, 50), -1)
     cv2.line(frame, (960, 145), (960, 935), (240, 240, 240), 6)
     cv2.circle(frame, (960, 540), 120, (240, 240, 240), 6)
     for u in (500, 700, 1400):
-        cv2.circle(frame, (u, 300), 20, (30, 30, 30), -1)
-    cv2.circle(frame, ball, 20, ball_bgr, -1, cv2.LINE_AA)
+        cv2.circle(frame, (u, 300), 20, heads_bgr, -1)
+    if ball is not None:
+        cv2.circle(frame, ball, 20, ball_bgr, -1, cv2.LINE_AA)
     return cv2.GaussianBlur(frame, (5, 5), 1.0)
 
 
 def test_the_field_and_the_ball_are_found():
-    field, candidates = StillBallFinder().find(drawn_still())
+    finder = StillBallFinder()
+    field, candidates = finder.find(drawn_still())
     assert field is not None and 0.4 < field.share < 0.7
     assert abs(field.ball_radius_px - 20.3) < 2.0, field.ball_radius_px
     assert candidates and math.hypot(candidates[0].u - 1200, candidates[0].v - 500) < 3.0, candidates[:2]
+    _, ball = finder.ball(drawn_still())
+    assert ball is not None and ball.score >= MIN_SCORE and ball.outline == 1.0, ball
 
 
 def test_a_yellow_ball_needs_no_colour_given():
@@ -34,6 +40,58 @@ def test_a_yellow_ball_needs_no_colour_given():
     assert candidates and math.hypot(candidates[0].u - 700, candidates[0].v - 800) < 3.0, candidates[:2]
 
 
+def test_lines_and_a_rods_highlight_are_no_ball():
+    # No ball: white lines, and a light streak along a rod (a lamp's reflection), as wide as the ball and 4 balls long.
+    frame = drawn_still(ball=None)
+    cv2.line(frame, (260, 650), (1660, 650), (120, 120, 120), 14)
+    cv2.ellipse(frame, (1100, 650), (80, 10), 0, 0, 360, (250, 250, 250), -1, cv2.LINE_AA)
+    finder = StillBallFinder()
+    field, candidates = finder.find(frame)
+    assert field is not None
+    assert finder.ball(frame)[1] is None, candidates[:2]
+    streak = [c for c in candidates if abs(c.v - 650) < 20 and abs(c.u - 1100) < 100]
+    assert all(c.outline < 0.75 for c in streak), streak
+
+
+def test_a_team_in_one_colour_is_not_the_ball():
+    # Twelve lit heads of the ball's size in a team's yellow, and a white ball: the heads answer the disc filter as
+    # well as the ball does, but their colour covers a dozen balls' areas of the field.
+    frame = drawn_still(ball=(1200, 500))
+    places = [(420 + 100 * k, 420 if k % 2 else 700) for k in range(12)]
+    for place in places:
+        cv2.circle(frame, place, 20, (40, 210, 230), -1, cv2.LINE_AA)
+    field, candidates = StillBallFinder().find(frame)
+    assert candidates and math.hypot(candidates[0].u - 1200, candidates[0].v - 500) < 3.0, candidates[:3]
+    heads = [c for c in candidates if min(math.hypot(c.u - u, c.v - v) for u, v in places) < 5]
+    assert len(heads) >= 10 and min(c.team_balls for c in heads) > TEAM_BALLS, heads
+
+
 def test_no_felt_no_field():
     field, candidates = StillBallFinder().find(np.random.default_rng(1).integers(0, 255, (480, 640, 3), np.uint8))
     assert field is None and candidates == []
+
+
+# Between the rods (y = +/-0.075, 0.225, 0.375, 0.525), clear of the figures that hang on them.
+RENDERED_BALLS = [(0.10, -0.15), (-0.22, 0.30), (0.25, 0.0)]
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("colour", ["white", "yellow", "orange"])
+def test_a_rendered_ball_is_found_whatever_its_colour(colour):
+    from foos_sim.camera.live import LiveCamera, LiveCameraConfig
+    from foos_sim.simulation import TableSimulation
+
+    camera = LiveCamera(LiveCameraConfig(rate=60, width=1280, height=720, ball_colour=colour, shadows=True, seed=2))
+    finder = StillBallFinder()
+    try:
+        for x, y in RENDERED_BALLS:
+            sim = TableSimulation()
+            sim.reset(ball_position=(x, y), ball_velocity=(0.0, 0.0))
+            image = camera.capture(sim.data.qpos.copy())
+            u, v = camera.camera.project(sim.ball_position()[None, :])[0]
+            field, ball = finder.ball(image)
+            assert field is not None
+            assert ball is not None, (colour, x, y, finder.find(image)[1][:2])
+            assert math.hypot(ball.u - u, ball.v - v) < 2 * field.ball_radius_px, (colour, x, y, ball, (u, v))
+    finally:
+        camera.close()
