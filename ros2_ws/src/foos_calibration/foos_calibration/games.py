@@ -291,7 +291,7 @@ class _BallPush:
         self.sim, self.hidden = sim, hidden
         geometry = TableGeometry.from_params(params)
         self.ball = BallBody(float(params["ball"]["mass"]), geometry.ball_radius, float(params["gravity"]),
-                             float(params["ball"]["rolling_deceleration"]))
+                             float(params["ball"]["rolling_deceleration"]), (geometry.half_width, geometry.half_length))
         self.body = sim.model.body("ball").id
 
     def apply(self) -> None:

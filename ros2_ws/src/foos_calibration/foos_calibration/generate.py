@@ -15,7 +15,7 @@ import argparse
 import json
 import math
 import sys
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -31,6 +31,7 @@ from foos_sim.model_builder import ball_model_from_params
 
 from . import game_styles, games
 from .hidden_forces import BallBody, HiddenEffects, ball_wrench, world_spin
+from .table_shapes import ShapeError, SurfaceShape, parse_shape
 
 CONTROL_STEPS = 20  # physics steps between force updates (1 ms at 20 kHz)
 WALL_SLOW_ZONE = 0.01  # m from a wall where the loop steps one physics step at a time
@@ -60,9 +61,9 @@ class HiddenTable:
         self.radius, self.mass = geometry.ball_radius, float(ball["mass"])
         self.g = float(self.params["gravity"])
         self.nominal_rolling = float(ball["rolling_deceleration"])
-        self.ball = BallBody(self.mass, self.radius, self.g, self.nominal_rolling)
         self.nominal_restitution = float(self.params["walls"]["restitution"])
         self.half = np.array([geometry.half_width, geometry.half_length])
+        self.ball = BallBody(self.mass, self.radius, self.g, self.nominal_rolling, (geometry.half_width, geometry.half_length))
         self.ball_body = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "ball")
         self.wall_geoms = {
             i for i in range(self.model.ngeom)
@@ -173,10 +174,13 @@ def random_launch(rng: np.random.Generator, half: np.ndarray, margin: float = 0.
 
 def generate(effects: Sequence[dict], duration: float = 60.0, seed: int = 0, fps: float = 120.0,
              noise: float = 0.0015, dropout: float = 0.05, params: dict | None = None,
-             progress: bool = False) -> Recording:
-    """Hand-launched rolls for `duration` seconds of recording (gaps where the ball is picked up)."""
+             progress: bool = False, shapes: Sequence[SurfaceShape] = ()) -> Recording:
+    """Hand-launched rolls for `duration` seconds of recording (gaps where the ball is picked up), on a table
+    with the hidden `effects` (the contract's vocabulary) and `shapes` of its surface (outside it)."""
     rng = np.random.default_rng(seed)
-    table = HiddenTable(HiddenEffects.from_effects(effects), params)
+    hidden = HiddenEffects.from_effects(effects)
+    hidden.shapes = list(shapes)
+    table = HiddenTable(hidden, params)
     t_all, p_all, launches = [], [], []
     clock = 0.0
     bar = None
@@ -302,6 +306,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     games.add_arguments(parser)
     parser.add_argument("--effect", action="append", type=parse_effect, default=[],
                         help="hidden effect NAME:key=value,... in the contract's vocabulary (repeatable)")
+    parser.add_argument("--shape", action="append", type=_shape_argument, default=[],
+                        help="a shape of the surface outside the contract's vocabulary (free rolls, repeatable): "
+                             "bowl:depth=D, saddle:amplitude=A or ramp:corner=+x-y,rise=R,size=S (m)")
     parser.add_argument("--random", type=int, default=0, metavar="N",
                         help="hide N effects drawn at random (names and magnitudes) instead")
     parser.add_argument("--duration", type=float, default=60.0, help="seconds of recording (default 60)")
@@ -338,6 +345,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         if args.style is not None:
             raise ValueError("--style is for games: add --game")
+        if args.game and args.shape:
+            raise ValueError("--shape is hidden in free rolls only (leave out --game)")
         if any(e["name"] in games.DRIVE_EFFECTS for e in effects):  # a free roll has no drives to hide them in
             raise ValueError("drive effects (rod_*) are hidden in games: add --game")
         if any(e["name"] in games.CAMERA_EFFECTS for e in effects):  # found against the encoders' clock
@@ -349,10 +358,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             names = rng.choice([n for n in EFFECT_NAMES], size=min(args.random, len(EFFECT_NAMES)), replace=False)
             effects = [random_effect(str(n), rng) for n in names]
         HiddenEffects.from_effects(effects)
-        recording = generate(effects, args.duration, args.seed, args.fps, args.noise, args.dropout, progress=True)
+        recording = generate(effects, args.duration, args.seed, args.fps, args.noise, args.dropout, progress=True,
+                             shapes=args.shape)
         write_bag(recording, args.bag)
         if args.truth:
-            Path(args.truth).write_text(json.dumps({"effects": effects, "seed": args.seed}, indent=2))
+            Path(args.truth).write_text(json.dumps({"effects": effects, "seed": args.seed,
+                                                    "shapes": [asdict(shape) for shape in args.shape]}, indent=2))
     except (ValueError, KeyError, OSError, games.GameError, game_styles.StyleError) as error:
         print(f"generate_measured: {str(error).splitlines()[0] if str(error) else type(error).__name__}", file=sys.stderr)
         return 2
@@ -362,6 +373,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"wrote {args.bag}: {len(recording.t)} detections over {args.duration:.0f} s, "
           f"{len(recording.launches)} launches; hidden effects are not in the bag")
     return 0
+
+
+def _shape_argument(text: str) -> SurfaceShape:
+    try:
+        return parse_shape(text)
+    except ShapeError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 if __name__ == "__main__":

@@ -17,6 +17,8 @@ import numpy as np
 
 from foos_sim.effects import EFFECT_NAMES, ROLLING_MASS_FACTOR, Dent, EffectError
 
+from .table_shapes import SurfaceShape, shapes_gradient
+
 
 @dataclass
 class HiddenEffects:
@@ -28,6 +30,7 @@ class HiddenEffects:
     drag_coefficient: float = 0.0
     dents: list[Dent] = field(default_factory=list)
     restitution: float | None = None  # all walls; None: nominal
+    shapes: list[SurfaceShape] = field(default_factory=list)  # outside the vocabulary (table_shapes)
 
     @classmethod
     def from_effects(cls, effects: Sequence[dict]) -> "HiddenEffects":
@@ -79,6 +82,7 @@ class BallBody:
     radius: float
     gravity: float
     nominal_rolling: float  # m/s^2, the model's own rolling deceleration
+    field_half: tuple[float, float] = (0.34, 0.6)  # m, the field's half width and half length (where shapes sit)
 
 
 def world_spin(quaternion: np.ndarray, local_spin: np.ndarray) -> np.ndarray:
@@ -107,6 +111,9 @@ def ball_wrench(hidden: HiddenEffects, ball: BallBody, position: np.ndarray, vel
     force[:2] += m * ball.gravity * np.asarray(h.slope)
     if h.dents:
         gx, gy = dent_gradient(h.dents, np.array([position[0]]), np.array([position[1]]))
+        force[:2] -= m * ball.gravity * np.array([gx[0], gy[0]])
+    if h.shapes:
+        gx, gy = shapes_gradient(h.shapes, np.array([position[0]]), np.array([position[1]]), ball.field_half)
         force[:2] -= m * ball.gravity * np.array([gx[0], gy[0]])
     spin = math.hypot(omega[0], omega[1])
     if h.rolling_deceleration is not None and spin > 1e-6:
