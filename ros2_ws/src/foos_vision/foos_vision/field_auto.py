@@ -50,8 +50,10 @@ MIN_FELT_CHROMA = 12.0  # Lab chroma: felt less colourful than this is grey or b
 HUE_TOL_DEG = 20.0  # coloured felt: its hue, in light and in shade ...
 CHROMA_RANGE = (0.4, 2.5)  # ... with a chroma this share of its middle's
 GREY_CHROMA_TOL = 10.0  # grey or black felt: chroma at most this above its middle's ...
-GREY_LIGHT_TOL = 25.0  # ... and lightness this close
-CLOSE_SHARE = 0.02  # of the work width: the closing that bridges rods and lines
+GREY_LIGHT_TOL = 25.0  # ... and lightness this close at most, ...
+GREY_LIGHT_MIN = 12.0  # ... at least ...
+GREY_SPREADS = 4.0  # ... and else this many times the lightness's spread in the image's middle
+CLOSE_SHARES = (0.02, 0.012, 0.007)  # of the work width: the closings tried to bridge rods and lines, widest first
 MIN_FIELD_SHARE = 0.05  # of the image: a felt piece smaller than this is not a table's field
 MAX_BORDER_SHARE = 0.05  # of the image's edge the felt's piece may touch (the field's walls are in view)
 CORNER_SKIP = 0.12  # of a side left out at each end
@@ -133,9 +135,29 @@ def find_field_corners(frames: list[np.ndarray], half_width: float, half_length:
     if not frames:
         raise FieldNotFound("--field-corners auto: the video has no frames to find the field in")
     still = frames[0] if len(frames) == 1 else np.median(np.stack(frames), axis=0).astype(np.uint8)
+    felt = _felt_colour(still)
+    # A wide closing bridges rods and lines, and can bridge a thin wall to a floor of the felt's shade beyond it:
+    # narrower ones are tried where the field found with it does not hold up.
+    first_error = None
+    for share in CLOSE_SHARES:
+        try:
+            result = _find_in(felt, share, half_width, half_length, goal_half_width, wall_height, intrinsics)
+            break
+        except FieldNotFound as error:
+            first_error = first_error or error
+    else:
+        raise first_error
+    result.frames = len(frames)
+    result.seconds = (cv2.getTickCount() - started) / cv2.getTickFrequency()
+    return result
+
+
+def _find_in(felt: np.ndarray, close_share: float, half_width: float, half_length: float, goal_half_width: float,
+             wall_height: float, intrinsics: Optional[Intrinsics]) -> FoundCorners:
+    """find_field_corners with one closing of the felt."""
     lens = Lens(intrinsics)
-    region, felt = _felt_mask(still)
-    height, width = still.shape[:2]
+    region, felt = _felt_piece(felt, close_share)
+    height, width = felt.shape
     quad = _table_order(_rough_quadrilateral(region), lens, intrinsics, (width, height))
     soft = cv2.GaussianBlur(felt.astype(np.float32), (0, 0), 1.0)
     search = max(MIN_SEARCH_PX, SEARCH_SHARE * float(np.mean(np.linalg.norm(np.roll(quad, -1, axis=0) - quad, axis=1))))
@@ -192,8 +214,7 @@ def find_field_corners(frames: list[np.ndarray], half_width: float, half_length:
         rms = [float(np.sqrt(np.mean(r ** 2))) for r in residuals]
     aspect = _aspect(corners, k)
     result = FoundCorners(lens.distort(corners), np.array(support), np.array(rms), aspect, half_length / half_width,
-                          behind, len(frames), (cv2.getTickCount() - started) / cv2.getTickFrequency(),
-                          getattr(lens, "strength", 0.0))
+                          behind, 0, 0.0, getattr(lens, "strength", 0.0))
     if result.aspect_error > MAX_ASPECT_ERROR:
         raise FieldNotFound(f"--field-corners auto: the quadrilateral found is {aspect:.2f} times as long as wide, the "
                             f"table {result.expected_aspect:.2f}: no field found; give --field-corners U1,V1,... or "
@@ -274,10 +295,8 @@ def _side_name(i: int) -> str:
     return ("home end", "+x side", "away end", "-x side")[i]
 
 
-def _felt_mask(bgr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Full-resolution uint8 masks: the felt's piece closed over rods and lines with its holes filled (its outline
-    the field's, to a few pixels), and the felt's own pixels along that outline with the inside filled (its edges
-    to a fraction of a pixel)."""
+def _felt_colour(bgr: np.ndarray) -> np.ndarray:
+    """Full-resolution uint8 mask of the felt's colour (1), the commonest of the image's middle."""
     height, width = bgr.shape[:2]
     lab = cv2.cvtColor(bgr, cv2.COLOR_BGR2Lab).astype(np.float32)
     light, a, b = lab[..., 0] * (100.0 / 255.0), lab[..., 1] - 128.0, lab[..., 2] - 128.0
@@ -307,21 +326,42 @@ def _felt_mask(bgr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                                 "give --field-corners U1,V1,...")
         counts, edges = np.histogram(l_mid[grey], bins=50, range=(0, 100))
         l0 = float(edges[np.argmax(counts)] + 1.0)
-        c0 = float(np.median(c_mid[grey & (np.abs(l_mid - l0) <= GREY_LIGHT_TOL)]))
-        felt = (chroma <= c0 + GREY_CHROMA_TOL) & (np.abs(light - l0) <= GREY_LIGHT_TOL)
-    felt = felt.astype(np.uint8)
-    # The piece: found at the work width (closing over rods and lines, filling the figures' holes), then its
-    # outline at full resolution is the felt's own pixels near it.
+        near = grey & (np.abs(l_mid - l0) <= GREY_LIGHT_TOL)
+        l0 = float(np.median(l_mid[near]))
+        c0 = float(np.median(c_mid[near]))
+        # Grey felt is told from a grey room by its lightness alone: as narrow as the felt's own spread allows.
+        spread = 1.4826 * float(np.median(np.abs(l_mid[near] - l0)))
+        light_tol = float(np.clip(GREY_SPREADS * spread, GREY_LIGHT_MIN, GREY_LIGHT_TOL))
+        felt = (chroma <= c0 + GREY_CHROMA_TOL) & (np.abs(light - l0) <= light_tol)
+    return felt.astype(np.uint8)
+
+
+def _felt_piece(felt: np.ndarray, close_share: float) -> tuple[np.ndarray, np.ndarray]:
+    """Full-resolution uint8 masks: the felt's piece in the image's middle, closed over rods and lines (a closing
+    close_share of the work width) with its holes filled (its outline the field's, to a few pixels); and the felt's
+    own pixels along that outline with the inside filled (its edges to a fraction of a pixel)."""
+    height, width = felt.shape
     scale = min(1.0, WORK_WIDTH / width)
     small = cv2.resize(felt, (round(width * scale), round(height * scale)), interpolation=cv2.INTER_AREA)
-    k = max(3, int(CLOSE_SHARE * small.shape[1]) | 1)
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
-    small = cv2.morphologyEx(cv2.morphologyEx(small, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)), cv2.MORPH_CLOSE,
-                             kernel)
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(small, connectivity=8)
-    sh, sw = small.shape
+    small = cv2.morphologyEx(small, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    k = max(3, int(close_share * small.shape[1]) | 1)
+    filled = _piece(cv2.morphologyEx(small, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))))
+    region = cv2.resize(filled, (width, height), interpolation=cv2.INTER_NEAREST)
+    # Full resolution: the felt's pixels within the piece (grown a little, so its true edge is inside), the inside
+    # of the piece shrunk filled (figures, lines), so the only edge left is the outline's.
+    grow = max(3, int(round(k / scale)) | 1)
+    outer = cv2.dilate(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
+    inner = cv2.erode(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * grow + 1, 2 * grow + 1)))
+    return region, ((felt & outer) | inner).astype(np.uint8)
+
+
+def _piece(closed: np.ndarray) -> np.ndarray:
+    """The closed felt's piece in the image's middle, holes filled; FieldNotFound where it is too small or runs off
+    the image."""
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(closed, connectivity=8)
+    sh, sw = closed.shape
     middle = labels[int(sh * 0.4):int(sh * 0.6), int(sw * 0.4):int(sw * 0.6)]
-    ids, hits = np.unique(middle[middle > 0], return_counts=True)
+    ids = np.unique(middle[middle > 0])
     if len(ids) == 0:
         raise FieldNotFound("--field-corners auto: no felt in the image's middle: no field found; give --field-corners "
                             "U1,V1,...")
@@ -335,15 +375,9 @@ def _felt_mask(bgr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         raise FieldNotFound(f"--field-corners auto: the felt runs off the image ({border.mean():.0%} of the image's edge): "
                             f"the whole field and its walls must be in view; no field found")
     contours, _ = cv2.findContours(own, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-    filled = np.zeros_like(small)
+    filled = np.zeros_like(closed)
     cv2.drawContours(filled, contours, -1, 1, thickness=-1)
-    region = cv2.resize(filled, (width, height), interpolation=cv2.INTER_NEAREST)
-    # Full resolution: the felt's pixels within the piece (grown a little, so its true edge is inside), the inside
-    # of the piece shrunk filled (figures, lines), so the only edge left is the outline's.
-    grow = max(3, int(round(k / scale)) | 1)
-    outer = cv2.dilate(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
-    inner = cv2.erode(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * grow + 1, 2 * grow + 1)))
-    return region, ((felt & outer) | inner).astype(np.uint8)
+    return filled
 
 
 def _angle(degrees: np.ndarray) -> np.ndarray:
@@ -426,10 +460,17 @@ def _table_order(quad: np.ndarray, lens: Lens, intrinsics: Optional[Intrinsics],
         k = np.array([[f, 0, size[0] / 2 - 0.5], [0, f, size[1] / 2 - 0.5], [0, 0, 1.0]])
     if _aspect(undistorted, k) < 1.0:
         quad = np.roll(quad, -1, axis=0)  # corner 0 -> 1 is then a short side: an end
-    home, away = (quad[0] + quad[1]) / 2, (quad[2] + quad[3]) / 2
+    return home_end_first(quad)
+
+
+def home_end_first(corners: np.ndarray) -> np.ndarray:
+    """Corners in CORNER_ORDER up to the ends' exchange, rolled so that the home end (corners 1 and 2) is the left
+    end of a field lying across the image, the bottom end of one lying up and down it."""
+    corners = np.asarray(corners, float)
+    home, away = (corners[0] + corners[1]) / 2, (corners[2] + corners[3]) / 2
     along = away - home
     home_first = home[0] < away[0] if abs(along[0]) >= abs(along[1]) else home[1] > away[1]
-    return quad if home_first else np.roll(quad, -2, axis=0)
+    return corners if home_first else np.roll(corners, -2, axis=0)
 
 
 def _edge_points(soft: np.ndarray, a: np.ndarray, b: np.ndarray, search: float) -> tuple[np.ndarray, np.ndarray]:

@@ -31,6 +31,8 @@ from .tracker import BallTracker, TrackerConfig, choose_colour
 from .velocity import central_differences
 from .video_io import VideoReader
 
+LOW_CONFIDENCE = 0.5  # --field-corners auto: below this the run warns
+
 DESCRIPTION = """\
 Track the ball in a video of the table and write a rosbag2 bag (MCAP) with
   /ball/detection  geometry_msgs/PointStamped, frame `table`, stamp = frame time (index / fps + --start-time)
@@ -241,6 +243,10 @@ def _found_corners(args: argparse.Namespace, intrinsics) -> FieldCorners:
     found = find_field_corners(frames, table.half_width, table.half_length, table.goal_half_width, wall_height,
                                intrinsics)
     print(f"track_video: {found.summary()}")
+    if found.confidence < LOW_CONFIDENCE:
+        print(f"track_video: warning: the field found is not sure (confidence {found.confidence:.2f}): check it with "
+              f"--annotate, or give --field-corners U1,V1,... (or --field-size if the table is not the regulation one)",
+              file=sys.stderr)
     return parse_field_corners(list(found.pixels.ravel()), "--field-corners auto")
 
 
