@@ -100,10 +100,12 @@ def test_auto_with_markers_is_refused(overhead_video, tmp_path):
 
 @pytest.mark.skipif(not (REALDATA / "goal5" / "goal5.mp4").exists(), reason="../shared/realdata/goal5 is absent")
 @pytest.mark.timeout(120)
-def test_goal5_ends_found_and_its_border_flagged():
-    """goal5's table has a white border round its green felt, inside the walls (see
-    docs/measurements/vision-2026-11-27-field-auto.md): the ends (u, along the length) are found where the tags put
-    them, the long sides on the felt's edge inside the border, and the confidence says the shape is off."""
+def test_goal5_field_beyond_its_felt_found_and_flagged():
+    """goal5's table has a white border round its green felt, inside the side walls (see
+    docs/measurements/vision-2026-11-27-field-auto.md). Its corners are known only from its tags, to 10-20 px across
+    the field (their height above the surface is undone with a guessed focal length), but along it (u) to a few px.
+    The ends are found where the tags put them; the long sides at the walls beyond the border, not on the felt
+    (30 px inside); the run is flagged as unsure."""
     reader = VideoReader(str(REALDATA / "goal5" / "goal5.mp4"))
     frames = still_frames(reader.frames(), reader.fps)
     reader.close()
@@ -114,4 +116,6 @@ def test_goal5_ends_found_and_its_border_flagged():
     x, y = TABLE.half_width, TABLE.half_length
     tagged = mapping.to_image(np.array([(-x, -y), (x, -y), (x, y), (-x, y)]))
     assert np.abs(found.pixels[:, 0] - tagged[:, 0]).max() <= TARGET_PX, (found.summary(), tagged)
-    assert found.aspect_error > 0.05 and found.confidence < 0.5, found.summary()
+    assert found.bordered == [1, 3], found.summary()
+    assert np.linalg.norm(found.pixels - tagged, axis=1).max() <= 25.0, (found.summary(), tagged)
+    assert found.confidence < 0.5, found.summary()

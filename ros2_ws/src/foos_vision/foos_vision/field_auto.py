@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Iterable, Optional
 
 import cv2
@@ -38,7 +38,7 @@ from foos_core.camera_model import Intrinsics
 
 from .corner_refine import camera_of_corners, fit_corners_to_lines, wall_faces_seen
 from .field_corners import CORNER_ORDER, FieldCornersError
-from .geometry import Lens, corner_camera_matrix
+from .geometry import Lens, corner_camera_matrix, surface_homography
 
 AUTO = "auto"
 FRAMES = 9  # the still table is the median of this many frames ...
@@ -68,6 +68,10 @@ INLIER_PX = 1.5  # an edge point this close to its side's line (or 3 robust sigm
 MIN_SUPPORT = 0.4  # of a side's samples on its line, at least
 MAX_ASPECT_ERROR = 0.25  # the field's length over its width, measured against the table's: further off is no field
 FOVY_HINT = 50.0
+BORDER_ASPECT = 0.05  # a felt further than this from the table's aspect is looked at for a border to the walls
+WALL_SEARCH = 1.0  # of the border's width: how far beyond where the table's shape puts a wall it is looked for
+BORDER_SKIP_PX = 3.0  # the felt's own edge is this close to it
+WALL_MIN_STEP = 4.0  # grey levels per px: a weaker step is not a wall's foot
 HULL_SIMPLIFY = (0.005, 0.01, 0.02, 0.04)  # of the hull's perimeter: the tolerances tried, finest first, ...
 MAX_HULL_SIDES = 12  # ... until the hull has at most this many sides
 WALL_FIT_ROUNDS = 20
@@ -92,6 +96,7 @@ class FoundCorners:
     frames: int  # frames the still table was made of
     seconds: float  # time the search took
     bend: float = 0.0  # the lens's barrel bend the sides were straightened by (DivisionLens.strength; 0: none)
+    bordered: list[int] = field(default_factory=list)  # sides taken at the wall found beyond the felt's edge
 
     @property
     def aspect_error(self) -> float:
@@ -106,6 +111,8 @@ class FoundCorners:
         sides = ", ".join(f"{s:.0%}/{r:.1f}" for s, r in zip(self.support, self.rms_px))
         behind = f"; sides {[i + 1 for i in self.walls_from_behind]} at their wall's top" if self.walls_from_behind else ""
         behind += f"; sides straightened (lens bend {self.bend:.3f})" if self.bend else ""
+        behind += (f"; sides {[i + 1 for i in self.bordered]} at the walls beyond a border round the felt"
+                   if self.bordered else "")
         return (f"field corners found: {corners} (px, {CORNER_ORDER}); confidence {self.confidence:.2f}: sides on "
                 f"their line {sides} px RMS, aspect {self.aspect:.2f} (table {self.expected_aspect:.2f}){behind}; "
                 f"{self.frames} frames, {self.seconds:.2f} s")
@@ -141,7 +148,7 @@ def find_field_corners(frames: list[np.ndarray], half_width: float, half_length:
     first_error = None
     for share in CLOSE_SHARES:
         try:
-            result = _find_in(felt, share, half_width, half_length, goal_half_width, wall_height, intrinsics)
+            result = _find_in(still, felt, share, half_width, half_length, goal_half_width, wall_height, intrinsics)
             break
         except FieldNotFound as error:
             first_error = first_error or error
@@ -152,8 +159,8 @@ def find_field_corners(frames: list[np.ndarray], half_width: float, half_length:
     return result
 
 
-def _find_in(felt: np.ndarray, close_share: float, half_width: float, half_length: float, goal_half_width: float,
-             wall_height: float, intrinsics: Optional[Intrinsics]) -> FoundCorners:
+def _find_in(still: np.ndarray, felt: np.ndarray, close_share: float, half_width: float, half_length: float,
+             goal_half_width: float, wall_height: float, intrinsics: Optional[Intrinsics]) -> FoundCorners:
     """find_field_corners with one closing of the felt."""
     lens = Lens(intrinsics)
     region, felt = _felt_piece(felt, close_share)
@@ -213,8 +220,18 @@ def _find_in(felt: np.ndarray, close_share: float, half_width: float, half_lengt
                 break
         rms = [float(np.sqrt(np.mean(r ** 2))) for r in residuals]
     aspect = _aspect(corners, k)
+    bordered: list[int] = []
+    if not behind and abs(aspect / (half_length / half_width) - 1.0) > BORDER_ASPECT:
+        walls = _walls_round_felt(cv2.cvtColor(still, cv2.COLOR_BGR2GRAY), corners, aspect, lens, half_width,
+                                  half_length)
+        if walls is not None:
+            for i, (line, share, spread) in walls.items():
+                lines[i], support[i], rms[i] = line, share, spread
+            corners = np.array([_intersect(lines[i - 1], lines[i]) for i in range(4)])
+            k = corner_camera_matrix(corners, half_width, half_length, size, intrinsics, FOVY_HINT)
+            aspect, bordered = _aspect(corners, k), sorted(walls)
     result = FoundCorners(lens.distort(corners), np.array(support), np.array(rms), aspect, half_length / half_width,
-                          behind, 0, 0.0, getattr(lens, "strength", 0.0))
+                          behind, 0, 0.0, getattr(lens, "strength", 0.0), bordered)
     if result.aspect_error > MAX_ASPECT_ERROR:
         raise FieldNotFound(f"--field-corners auto: the quadrilateral found is {aspect:.2f} times as long as wide, the "
                             f"table {result.expected_aspect:.2f}: no field found; give --field-corners U1,V1,... or "
@@ -224,6 +241,57 @@ def _find_in(felt: np.ndarray, close_share: float, half_width: float, half_lengt
             raise FieldNotFound(f"--field-corners auto: corner {index} falls outside the image at ({u:.0f}, {v:.0f}); "
                                 f"the whole field must be in view")
     return result
+
+
+def _walls_round_felt(gray: np.ndarray, corners: np.ndarray, aspect: float, lens, half_width: float,
+                      half_length: float) -> Optional[dict[int, tuple[np.ndarray, float, float]]]:
+    """Where the felt is not the table's shape, a border of the playing surface (another colour: white on many
+    tables) lies between it and a pair of walls. The felt's corners (undistorted px) taken as a rectangle of its own
+    measured aspect put those walls where the table's shape says; each is looked for there as a straight step of
+    grey level (the strongest across WALL_SEARCH of the border's width). Per side found: (line, support, RMS px);
+    None unless both walls of the pair are found."""
+    expected = half_length / half_width
+    if aspect > expected:  # the felt is too narrow: the side walls (sides 2 and 4) lie beyond a border
+        sides, felt_half = (1, 3), (half_length / aspect, half_length)
+    else:  # too short: the end walls
+        sides, felt_half = (0, 2), (half_width, half_width * aspect)
+    to_image = np.linalg.inv(surface_homography(corners, *felt_half))
+    blurred = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), 1.0)
+    table = np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)], float)
+    found = {}
+    for i in sides:
+        a, b = table[i], table[(i + 1) % 4]
+        s = np.linspace(CORNER_SKIP, 1.0 - CORNER_SKIP, SAMPLES_PER_SIDE)[:, None]
+        felt_edge = (a + s * (b - a)) * felt_half
+        wall = (a + s * (b - a)) * (half_width, half_length)
+        at_felt, at_wall = _to_pixels(to_image, felt_edge), _to_pixels(to_image, wall)
+        outward = at_wall - at_felt
+        border = np.linalg.norm(outward, axis=1, keepdims=True)
+        outward = outward / np.maximum(border, 1e-9)
+        # From just beyond the felt's edge to as far again beyond where the table's shape puts the wall: the felt's
+        # measured aspect is only as good as the focal length the corners reveal.
+        width = float(np.median(border))
+        offsets = np.arange(-width + BORDER_SKIP_PX, WALL_SEARCH * width + 1e-9, STEP_PX)
+        across = at_wall[:, None, :] + offsets[None, :, None] * outward[:, None, :]
+        image = lens.distort(across.reshape(-1, 2)).reshape(across.shape).astype(np.float32)
+        profiles = cv2.remap(blurred, image[..., 0], image[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        gradient = np.gradient(profiles, STEP_PX, axis=1)
+        peak = np.argmax(np.abs(gradient), axis=1)
+        rows = np.arange(len(peak))
+        strength = gradient[rows, peak]
+        # A wall's foot is one step all along it: its sign is most samples' step's, and weak steps are none.
+        keep = (np.sign(strength) == np.sign(np.median(strength))) & (np.abs(strength) >= WALL_MIN_STEP)
+        points = (at_wall + offsets[peak][:, None] * outward)[keep]
+        line, inliers = _robust_line(points)
+        if line is None or inliers.sum() < MIN_SUPPORT * SAMPLES_PER_SIDE:
+            return None
+        spread = float(np.sqrt(np.mean((points[inliers] @ line[:2] - line[2]) ** 2)))
+        found[i] = (line, min(1.0, inliers.sum() / SAMPLES_PER_SIDE), spread)
+    return found
+
+
+def _to_pixels(plane_to_image: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    return cv2.perspectiveTransform(np.asarray(xy, float).reshape(-1, 1, 2), plane_to_image).reshape(-1, 2)
 
 
 class DivisionLens:
