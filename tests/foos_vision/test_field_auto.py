@@ -4,6 +4,7 @@ as a user runs track_video with it, refused in one line where there is no field,
 from __future__ import annotations
 
 import re
+import time
 from pathlib import Path
 
 import cv2
@@ -119,3 +120,81 @@ def test_goal5_field_beyond_its_felt_found_and_flagged():
     assert found.bordered == [1, 3], found.summary()
     assert np.linalg.norm(found.pixels - tagged, axis=1).max() <= 25.0, (found.summary(), tagged)
     assert found.confidence < 0.5, found.summary()
+
+
+def noise_video(path: Path) -> Path:
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 30, (320, 240))
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        writer.write(rng.integers(0, 256, (240, 320, 3), dtype=np.uint8))
+    writer.release()
+    return path
+
+
+@pytest.mark.dds
+@pytest.mark.timeout(150)
+def test_tracker_node_auto_finds_the_field_then_tracks(overhead_video, tmp_path):
+    """field_corners:=auto over DDS (ROS_DOMAIN_ID 57): the first 2 s of stamps (the video looped) find the field,
+    logged, then the ball is tracked."""
+    import rclpy  # a DDS test's own: the other tests here run without rclpy
+    from geometry_msgs.msg import PointStamped
+    from rclpy.executors import SingleThreadedExecutor
+
+    from .helpers import stop_node
+    from .test_nodes_dds import spawn
+
+    domain = 57
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain)
+    node = rclpy.create_node("auto_corners_listener", context=context)
+    received = []
+    node.create_subscription(PointStamped, "/ball/detection", lambda m: received.append(m.point.x), 100)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    log_path = tmp_path / "tracker.log"
+    with open(log_path, "wb") as log, open(tmp_path / "source.log", "wb") as source_log:
+        tracker = spawn(domain, "tracker_node", "field_corners:=auto", "ball_color:=yellow", log=log)
+        source = spawn(domain, "video_source", f"source:={overhead_video}", "wait_for_subscribers:=1", "loop:=true",
+                       log=source_log)
+        try:
+            end = time.monotonic() + 90
+            while time.monotonic() < end and len(received) < 20 and tracker.poll() is None:
+                executor.spin_once(timeout_sec=0.1)
+        finally:
+            stop_node(source)
+            assert stop_node(tracker) == 0, log_path.read_text()
+            executor.shutdown()
+            node.destroy_node()
+            rclpy.shutdown(context=context)
+    text = log_path.read_text()
+    assert len(received) >= 20, text
+    numbers = re.search(r"field corners found: ([-0-9.,]+) \(px", text).group(1)
+    pixels = np.array([float(v) for v in numbers.split(",")]).reshape(4, 2)
+    truth = field_corner_pixels(rendered_camera(overhead_video), TABLE)
+    assert np.linalg.norm(pixels - truth, axis=1).max() <= TARGET_PX, text
+
+
+@pytest.mark.dds
+@pytest.mark.timeout(120)
+def test_tracker_node_auto_without_a_field_ends_in_one_line(tmp_path):
+    from .helpers import stop_node
+    from .test_nodes_dds import spawn
+
+    domain = 58
+    video = noise_video(tmp_path / "noise.mp4")
+    log_path = tmp_path / "tracker.log"
+    with open(log_path, "wb") as log, open(tmp_path / "source.log", "wb") as source_log:
+        tracker = spawn(domain, "tracker_node", "field_corners:=auto", log=log)
+        source = spawn(domain, "video_source", f"source:={video}", "wait_for_subscribers:=1", "loop:=true",
+                       log=source_log)
+        try:
+            code = tracker.wait(90)
+        finally:
+            stop_node(source)
+            if tracker.poll() is None:
+                stop_node(tracker)
+    text = log_path.read_text()
+    assert code == 2, text
+    errors = [line for line in text.splitlines() if "error" in line]
+    assert len(errors) == 1 and errors[0].startswith("tracker_node: error: field_corners auto:"), text
+    assert "no field found" in errors[0] and "Traceback" not in text, text
