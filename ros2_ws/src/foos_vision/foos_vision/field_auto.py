@@ -38,7 +38,18 @@ from foos_core.camera_model import Intrinsics
 
 from .corner_refine import camera_of_corners, fit_corners_to_lines, wall_faces_seen
 from .field_corners import CORNER_ORDER, FieldCornersError
-from .geometry import Lens, corner_camera_matrix, surface_homography
+from .field_lines import (
+    CORNER_SKIP,
+    MIN_SUPPORT,
+    SAMPLES_PER_SIDE,
+    STEP_PX,
+    DivisionLens,
+    NoIntersection,
+    intersect,
+    robust_line,
+)
+from .field_walls import walls_round_felt
+from .geometry import Lens, corner_camera_matrix
 
 AUTO = "auto"
 FRAMES = 9  # the still table is the median of this many frames ...
@@ -59,27 +70,17 @@ GREY_FELT_TRUST = 0.5
 CLOSE_SHARES = (0.02, 0.012, 0.007)  # of the work width: the closings tried to bridge rods and lines, widest first
 MIN_FIELD_SHARE = 0.05  # of the image: a felt piece smaller than this is not a table's field
 MAX_BORDER_SHARE = 0.05  # of the image's edge the felt's piece may touch (the field's walls are in view)
-CORNER_SKIP = 0.12  # of a side left out at each end
-SAMPLES_PER_SIDE = 96
 # Of the sides' mean length: how far across each side its edge is looked for (a bent side's bow, and the goal line
 # in front of a pocket of felt the outline took for the end, fit in it).
 SEARCH_SHARE = 0.08
 MIN_SEARCH_PX = 6.0
-STEP_PX = 0.5
 MOUTH_MARGIN = 0.03  # m beyond each goal post left out of an end's edge
-INLIER_PX = 1.5  # an edge point this close to its side's line (or 3 robust sigma) supports it
-MIN_SUPPORT = 0.4  # of a side's samples on its line, at least
 MAX_ASPECT_ERROR = 0.25  # the field's length over its width, measured against the table's: further off is no field
 FOVY_HINT = 50.0
 BORDER_ASPECT = 0.05  # a felt further than this from the table's aspect is looked at for a border to the walls
-WALL_SEARCH = 1.0  # of the border's width: how far beyond where the table's shape puts a wall it is looked for
-BORDER_SKIP_PX = 3.0  # the felt's own edge is this close to it
-WALL_MIN_STEP = 4.0  # grey levels per px: a weaker step is not a wall's foot
 HULL_SIMPLIFY = (0.005, 0.01, 0.02, 0.04)  # of the hull's perimeter: the tolerances tried, finest first, ...
 MAX_HULL_SIDES = 12  # ... until the hull has at most this many sides
 WALL_FIT_ROUNDS = 20
-MAX_BEND = 0.6  # the strongest barrel bend (DivisionLens.strength) looked for: a wide fisheye's
-STRAIGHTER = 0.7  # a bend is taken only where it leaves the sides' bow at most this share of a pinhole's
 
 
 class FieldNotFound(FieldCornersError):
@@ -183,7 +184,7 @@ def _find_in(still: np.ndarray, felt: np.ndarray, close_share: float, half_width
     grid = np.linspace(CORNER_SKIP, 1.0 - CORNER_SKIP, SAMPLES_PER_SIDE)
     for i in range(4):
         undistorted = lens.undistort(found[i]) if len(found[i]) else found[i]
-        line, inliers = _robust_line(undistorted)
+        line, inliers = robust_line(undistorted)
         samples = SAMPLES_PER_SIDE
         if i in (0, 2) and len(undistorted):
             # An end: where the felt runs on into the goal's pocket, its edge there is not the goal line. The end's
@@ -191,7 +192,7 @@ def _find_in(still: np.ndarray, felt: np.ndarray, close_share: float, half_width
             mouth = goal_half_width + MOUTH_MARGIN
             beside = np.abs(2.0 * along[i] - 1.0) * half_width >= mouth
             places = int(np.sum(np.abs(2.0 * grid - 1.0) * half_width >= mouth))
-            line_beside, inliers_beside = _robust_line(undistorted[beside])
+            line_beside, inliers_beside = robust_line(undistorted[beside])
             if line_beside is not None and inliers_beside.sum() >= MIN_SUPPORT * places:
                 line, samples = line_beside, places
                 inliers = np.zeros(len(undistorted), bool)
@@ -205,7 +206,7 @@ def _find_in(still: np.ndarray, felt: np.ndarray, close_share: float, half_width
         points.append(undistorted[inliers])
         support.append(min(1.0, inliers.sum() / samples))
         rms.append(float(np.sqrt(np.mean((undistorted[inliers] @ line[:2] - line[2]) ** 2))))
-    corners = np.array([_intersect(lines[i - 1], lines[i]) for i in range(4)])
+    corners = np.array([_meet(lines[i - 1], lines[i]) for i in range(4)])
     size = (width, height)
     k = corner_camera_matrix(corners, half_width, half_length, size, intrinsics, FOVY_HINT)
     camera = camera_of_corners(corners, k, size, half_width, half_length)
@@ -230,12 +231,12 @@ def _find_in(still: np.ndarray, felt: np.ndarray, close_share: float, half_width
     aspect = _aspect(corners, k)
     bordered: list[int] = []
     if not behind and abs(aspect / (half_length / half_width) - 1.0) > BORDER_ASPECT:
-        walls = _walls_round_felt(cv2.cvtColor(still, cv2.COLOR_BGR2GRAY), corners, aspect, lens, half_width,
+        walls = walls_round_felt(cv2.cvtColor(still, cv2.COLOR_BGR2GRAY), corners, aspect, lens, half_width,
                                   half_length)
         if walls is not None:
             for i, (line, share, spread) in walls.items():
                 lines[i], support[i], rms[i] = line, share, spread
-            corners = np.array([_intersect(lines[i - 1], lines[i]) for i in range(4)])
+            corners = np.array([_meet(lines[i - 1], lines[i]) for i in range(4)])
             k = corner_camera_matrix(corners, half_width, half_length, size, intrinsics, FOVY_HINT)
             aspect, bordered = _aspect(corners, k), sorted(walls)
     result = FoundCorners(lens.distort(corners), np.array(support), np.array(rms), aspect, half_length / half_width,
@@ -249,122 +250,6 @@ def _find_in(still: np.ndarray, felt: np.ndarray, close_share: float, half_width
             raise FieldNotFound(f"--field-corners auto: corner {index} falls outside the image at ({u:.0f}, {v:.0f}); "
                                 f"the whole field must be in view")
     return result
-
-
-def _walls_round_felt(gray: np.ndarray, corners: np.ndarray, aspect: float, lens, half_width: float,
-                      half_length: float) -> Optional[dict[int, tuple[np.ndarray, float, float]]]:
-    """Where the felt is not the table's shape, a border of the playing surface (another colour: white on many
-    tables) lies between it and a pair of walls. The felt's corners (undistorted px) taken as a rectangle of its own
-    measured aspect put those walls where the table's shape says; each is looked for there as a straight step of
-    grey level (the strongest across WALL_SEARCH of the border's width). Per side found: (line, support, RMS px);
-    None unless both walls of the pair are found."""
-    expected = half_length / half_width
-    if aspect > expected:  # the felt is too narrow: the side walls (sides 2 and 4) lie beyond a border
-        sides, felt_half = (1, 3), (half_length / aspect, half_length)
-    else:  # too short: the end walls
-        sides, felt_half = (0, 2), (half_width, half_width * aspect)
-    to_image = np.linalg.inv(surface_homography(corners, *felt_half))
-    blurred = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), 1.0)
-    table = np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)], float)
-    found = {}
-    for i in sides:
-        a, b = table[i], table[(i + 1) % 4]
-        s = np.linspace(CORNER_SKIP, 1.0 - CORNER_SKIP, SAMPLES_PER_SIDE)[:, None]
-        felt_edge = (a + s * (b - a)) * felt_half
-        wall = (a + s * (b - a)) * (half_width, half_length)
-        at_felt, at_wall = _to_pixels(to_image, felt_edge), _to_pixels(to_image, wall)
-        outward = at_wall - at_felt
-        border = np.linalg.norm(outward, axis=1, keepdims=True)
-        outward = outward / np.maximum(border, 1e-9)
-        # From just beyond the felt's edge to as far again beyond where the table's shape puts the wall: the felt's
-        # measured aspect is only as good as the focal length the corners reveal.
-        width = float(np.median(border))
-        offsets = np.arange(-width + BORDER_SKIP_PX, WALL_SEARCH * width + 1e-9, STEP_PX)
-        across = at_wall[:, None, :] + offsets[None, :, None] * outward[:, None, :]
-        image = lens.distort(across.reshape(-1, 2)).reshape(across.shape).astype(np.float32)
-        profiles = cv2.remap(blurred, image[..., 0], image[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        gradient = np.gradient(profiles, STEP_PX, axis=1)
-        peak = np.argmax(np.abs(gradient), axis=1)
-        rows = np.arange(len(peak))
-        strength = gradient[rows, peak]
-        # A wall's foot is one step all along it: its sign is most samples' step's, and weak steps are none.
-        keep = (np.sign(strength) == np.sign(np.median(strength))) & (np.abs(strength) >= WALL_MIN_STEP)
-        points = (at_wall + offsets[peak][:, None] * outward)[keep]
-        line, inliers = _robust_line(points)
-        if line is None or inliers.sum() < MIN_SUPPORT * SAMPLES_PER_SIDE:
-            return None
-        spread = float(np.sqrt(np.mean((points[inliers] @ line[:2] - line[2]) ** 2)))
-        found[i] = (line, min(1.0, inliers.sum() / SAMPLES_PER_SIDE), spread)
-    return found
-
-
-def _to_pixels(plane_to_image: np.ndarray, xy: np.ndarray) -> np.ndarray:
-    return cv2.perspectiveTransform(np.asarray(xy, float).reshape(-1, 1, 2), plane_to_image).reshape(-1, 2)
-
-
-class DivisionLens:
-    """A barrel lens not given by --intrinsics, as the felt's sides tell it: one-parameter division model about the
-    image centre, p_u = c + (p_d - c) / (1 - strength r^2), r = |p_d - c| / the image's half diagonal. The same
-    interface as geometry.Lens (points only)."""
-
-    def __init__(self, strength: float, size: tuple[int, int]):
-        self.strength = strength
-        self.centre = np.array([size[0] / 2 - 0.5, size[1] / 2 - 0.5])
-        self.scale = math.hypot(size[0], size[1]) / 2
-
-    @classmethod
-    def straightening(cls, sides: list[np.ndarray], size: tuple[int, int]) -> "DivisionLens":
-        """The strength that makes the four sides' edge points straightest: the sum of their median distances from
-        their lines, in pixels of the image (undistortion's stretch divided out). A bent lens's sides bow, most
-        those far from the image's centre; a pinhole's are straight at strength 0."""
-        def bow(strength: float) -> float:
-            lens = cls(strength, size)
-            total = 0.0
-            for points in sides:
-                if len(points) < 8:
-                    continue
-                undistorted = lens.undistort(points)
-                keep = np.ones(len(points), bool)
-                for _ in range(3):  # trimmed: a figure at the edge or a corner ramp's start is left out
-                    line = _fit_line(undistorted[keep])
-                    distance = np.abs(undistorted @ line[:2] - line[2])
-                    keep = distance <= max(INLIER_PX, 3.0 * float(np.median(distance[keep])))
-                r2 = np.sum(((points - lens.centre) / lens.scale) ** 2, axis=1)
-                total += float(np.median((distance * (1.0 - strength * r2))[keep]))
-            return total
-
-        grid = np.linspace(0.0, MAX_BEND, 31)
-        values = [bow(g) for g in grid]
-        best = int(np.argmin(values))
-        low, high = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
-        for _ in range(20):  # golden-section search around the grid's best
-            a, b = high - 0.618 * (high - low), low + 0.618 * (high - low)
-            if bow(a) < bow(b):
-                high = b
-            else:
-                low = a
-        strength = (low + high) / 2
-        # A bend that straightens the sides by less than STRAIGHTER is no lens's (a pinhole), only noise fitted.
-        return cls(strength if bow(strength) < STRAIGHTER * values[0] else 0.0, size)
-
-    def undistort(self, pixels: np.ndarray) -> np.ndarray:
-        pixels = np.asarray(pixels, float).reshape(-1, 2)
-        offset = (pixels - self.centre) / self.scale
-        r2 = np.sum(offset ** 2, axis=1, keepdims=True)
-        return self.centre + self.scale * offset / (1.0 - self.strength * r2)
-
-    def distort(self, pixels: np.ndarray) -> np.ndarray:
-        pixels = np.asarray(pixels, float).reshape(-1, 2)
-        if self.strength == 0.0:
-            return pixels
-        offset = (pixels - self.centre) / self.scale
-        r_u = np.linalg.norm(offset, axis=1, keepdims=True)
-        # r_u = r_d / (1 - s r_d^2): s r_u r_d^2 + r_d - r_u = 0, the root near r_u.
-        with np.errstate(invalid="ignore", divide="ignore"):
-            r_d = np.where(r_u > 1e-12, (-1.0 + np.sqrt(1.0 + 4.0 * self.strength * r_u ** 2))
-                           / (2.0 * self.strength * np.maximum(r_u, 1e-12)), r_u)
-            offset = np.where(r_u > 1e-12, offset * r_d / np.maximum(r_u, 1e-12), offset)
-        return self.centre + self.scale * offset
 
 
 def _side_name(i: int) -> str:
@@ -576,48 +461,12 @@ def _edge_points(soft: np.ndarray, a: np.ndarray, b: np.ndarray, search: float) 
     return (centres + where[:, None] * outward)[keep], s[keep]
 
 
-def _robust_line(points: np.ndarray) -> tuple[Optional[np.ndarray], np.ndarray]:
-    """(n, c) with n . p = c the line most of the points lie on (RANSAC, then total least squares on its inliers),
-    and the inliers; (None, none) for fewer than 8 points."""
-    keep = np.zeros(len(points), bool)
-    if len(points) < 8:
-        return None, keep
-    rng = np.random.default_rng(0)
-    best = -1
-    for _ in range(200):
-        i, j = rng.choice(len(points), 2, replace=False)
-        d = points[j] - points[i]
-        norm = np.linalg.norm(d)
-        if norm < 1e-6:
-            continue
-        n = np.array([-d[1], d[0]]) / norm
-        close = np.abs((points - points[i]) @ n) <= INLIER_PX
-        if close.sum() > best:
-            best, keep = int(close.sum()), close
-    for _ in range(5):
-        line = _fit_line(points[keep])
-        distance = np.abs(points @ line[:2] - line[2])
-        spread = 1.4826 * np.median(distance[keep])
-        new_keep = distance <= max(INLIER_PX, 3.0 * spread)
-        if np.array_equal(new_keep, keep) or new_keep.sum() < 2:
-            break
-        keep = new_keep
-    return _fit_line(points[keep]), keep
-
-
-def _fit_line(points: np.ndarray) -> np.ndarray:
-    mean = points.mean(axis=0)
-    centred = points - mean
-    _, vectors = np.linalg.eigh(centred.T @ centred)
-    normal = vectors[:, 0]  # the direction of least spread
-    return np.array([normal[0], normal[1], float(normal @ mean)])
-
-
-def _intersect(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
-    p = np.cross(np.array([l1[0], l1[1], -l1[2]]), np.array([l2[0], l2[1], -l2[2]]))
-    if abs(p[2]) < 1e-12:
-        raise FieldNotFound("--field-corners auto: two neighbouring sides of the felt are parallel: no field found")
-    return p[:2] / p[2]
+def _meet(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
+    try:
+        return intersect(l1, l2)
+    except NoIntersection:
+        raise FieldNotFound("--field-corners auto: two neighbouring sides of the felt are parallel: no field found") \
+            from None
 
 
 def _aspect(corners: np.ndarray, camera_matrix: np.ndarray) -> float:
