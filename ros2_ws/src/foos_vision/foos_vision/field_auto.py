@@ -5,23 +5,26 @@ How (find_field_corners):
    hands and swinging figures mostly drop out.
 2. The felt: the commonest colour of the image's middle (a hue for coloured felt, a lightness for black or grey
    felt), every pixel of that colour, closed over the rods and the lines, the largest piece in the middle with its
-   holes (figures, the centre circle) filled.
-3. Its outline as four sides: the outline's convex hull simplified to four corners gives each side roughly. Across
-   each side's middle (CORNER_SKIP of it left out at each end: corner ramps, posts, a goal's clutter) the felt's
-   edge is found to a fraction of a pixel on the full-resolution felt mask, the goal mouths left out, and a line is
-   fitted to those points, robustly (a figure or a hand at the edge is dropped). With --intrinsics the points are
-   undistorted first; a lens that bends straight lines and is not given leaves each side's line a chord of the
-   bent edge (see docs/vision-corners.md).
+   holes (figures, the centre circle) filled. Narrower closings (CLOSE_SHARES) are tried where the field found
+   with a wider one does not hold up (a thin wall bridged to a floor of the felt's shade).
+3. Its four sides: of the quadrilaterals along sides of the piece's simplified convex hull that hold it all, the
+   smallest (a felt with corner ramps, an octagon, gives its four long sides). Across each side's middle
+   (CORNER_SKIP of it left out at each end: corner ramps, posts) the felt's edge is found to a fraction of a pixel
+   on the full-resolution felt mask, an end's goal mouth left out where the end has enough beside it, and a line
+   is fitted to those points, robustly (a figure or a hand at the edge is dropped). With --intrinsics the points
+   are undistorted first; without, a barrel lens is straightened by field_lines.DivisionLens, fitted to the sides.
 4. The table's frame: the corners' camera (the intrinsics, else the focal length the quadrilateral reveals, else
    a 50 degree hint) measures the field's aspect, and the longer pair of sides is the length (y). The home end (-y)
    is the left end of a field lying across the image, the bottom end of one lying up and down it (a camera behind
    the home goal); the other end is the mirror image of this one, so no picture can tell them apart.
 5. The walls: seen from outside a wall's plane (behind a goal), the felt ends at the wall's top edge, not at the
    surface, which the wall hides: the corners are fitted (corner_refine.fit_corners_to_lines) with that side at the
-   wall's height, the others on the surface.
-6. How sure: per side, the share of its middle along which the felt's edge was found on its line (support), and
-   the points' RMS distance from it; the field's aspect against the table's. confidence = the least support times
-   (1 - aspect error / MAX_ASPECT_ERROR); below MIN_SUPPORT, or an aspect further off, is no field (FieldNotFound).
+   wall's height, the others on the surface. A felt more than BORDER_ASPECT off the table's shape may have a border
+   of the surface round it: the walls are looked for beyond it (field_walls.walls_round_felt).
+6. How sure: per side, the share of its middle along which the edge was found on its line (support), and the
+   points' RMS distance from it; the field's aspect against the table's. confidence = the least support times
+   (1 - aspect error / MAX_ASPECT_ERROR), halved for grey or black felt (GREY_FELT_TRUST); below MIN_SUPPORT, or an
+   aspect further off, is no field (FieldNotFound).
 The tracker then fits the corners to the table's edges as it does clicked ones (corner_refine).
 """
 from __future__ import annotations
