@@ -63,12 +63,15 @@ MIN_CENTRE_FELT = 0.25  # of that box the felt's colour covers, at least
 MIN_FELT_CHROMA = 12.0  # Lab chroma: felt less colourful than this is grey or black, told by its lightness
 HUE_TOL_DEG = 20.0  # coloured felt: its hue, in light and in shade ...
 CHROMA_RANGE = (0.4, 2.5)  # ... with a chroma this share of its middle's
-GREY_CHROMA_TOL = 10.0  # grey or black felt: chroma at most this above its middle's ...
+# Grey or black felt: chroma at most this above its middle's (a wall's inner face in shade keeps some of the wall's
+# colour: 8-9 on the renders' dark-brown walls, against black felt's 1-3) ...
+GREY_CHROMA_TOL = 5.0
 GREY_LIGHT_TOL = 25.0  # ... and lightness this close at most, ...
 GREY_LIGHT_MIN = 12.0  # ... at least ...
 GREY_SPREADS = 4.0  # ... and else this many times the lightness's spread in the image's middle
-# Grey or black felt is told from the walls by its lightness alone, and walls in shade pass for it (renders of
-# random cameras: black felt 0 of 7 within 4 px, grey 5 of 8, coloured 8 of 9): its confidence is halved.
+# Grey or black felt is told from the walls by its lightness and a low chroma, and walls in shade can pass for it
+# (renders of random cameras: grey 5 of 8 within 4 px, black 6 of 7, coloured 8 of 9; the achromatic misses had
+# confidences up to 0.88): its confidence is halved.
 GREY_FELT_TRUST = 0.5
 CLOSE_SHARES = (0.02, 0.012, 0.007)  # of the work width: the closings tried to bridge rods and lines, widest first
 MIN_FIELD_SHARE = 0.05  # of the image: a felt piece smaller than this is not a table's field
