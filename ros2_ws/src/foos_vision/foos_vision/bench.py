@@ -340,11 +340,12 @@ def main(argv=None) -> None:
                    help="score real footage instead of renders: a clip folder, or a folder of them (see real_bench)")
     p.add_argument("--field-auto", type=int, metavar="N",
                    help="--field-corners auto against the truth: N random render cases (foos_vision.field_bench), "
-                        "then, with --real DIR, DIR/goal5 (its corners from its tags)")
+                        "from case --field-auto-from")
+    p.add_argument("--field-auto-from", type=int, default=0, metavar="SEED", help="the first case's seed (default 0)")
     p.add_argument("--params-file", help="the filmed table's parameter file, for --real (default: the regulation table)")
     args = p.parse_args(argv)
     if args.field_auto:
-        run_cli_body(lambda: run_field_auto(args.field_auto, Path(args.real) if args.real else None))
+        run_cli_body(lambda: run_field_auto(args.field_auto, args.field_auto_from))
         return
     if args.real:
         run_cli_body(lambda: run_real(Path(args.real), args.params_file))

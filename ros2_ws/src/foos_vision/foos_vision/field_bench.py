@@ -8,14 +8,14 @@ horizon), its roll, its lens (a pinhole, a pinhole with radial distortion, or a 
 felt's colour (green, blue, red, grey or black). The truth is the camera model's projection of the field's corners;
 the finder's order follows its rule for the home end (field_auto._table_order), so the truth is put in that order.
 
-    ./scripts/bench_vision --field-auto 24        # 24 random render cases, then goal5 where it is at hand
+    ./scripts/bench_vision --field-auto 24                          # render cases 0-23
+    ./scripts/bench_vision --field-auto 24 --field-auto-from 24     # cases 24-47
 """
 from __future__ import annotations
 
 import math
 import time
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Optional
 
 import numpy as np
@@ -164,10 +164,10 @@ def run_case(case: RenderCase, frames: int = 3) -> CaseResult:
     return CaseResult(case.name, errors, found.confidence, seconds, found.summary(), fitted)
 
 
-def run_field_auto(cases: int, realdata: Optional[Path]) -> int:
+def run_field_auto(cases: int, first_seed: int = 0) -> int:
     print(f"{'case':48s} {'corner errors px':28s} {'max':>6s} {'conf':>5s} {'s':>5s} {'fitted to edges: max':>21s}")
     worst, fitted = [], []
-    for seed in range(cases):
+    for seed in range(first_seed, first_seed + cases):
         result = run_case(random_case(seed))
         if result.errors is None:
             print(f"{result.name:48s} not found: {result.note}")
