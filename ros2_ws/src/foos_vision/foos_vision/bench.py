@@ -58,6 +58,7 @@ from foos_sim.camera.boards import board_views
 from foos_sim.camera.render import read_joints, read_truth
 
 from .backfill import OfflineTracker
+from .field_bench import run_field_auto
 from .figure_mask import FigureGeometry, joint_track
 from .real_bench import run_cli_body, run_real
 from .tracker import BallTracker, TrackerConfig, choose_colour
@@ -337,8 +338,15 @@ def main(argv=None) -> None:
                         "or both (default)")
     p.add_argument("--real", metavar="DIR",
                    help="score real footage instead of renders: a clip folder, or a folder of them (see real_bench)")
+    p.add_argument("--field-auto", type=int, metavar="N",
+                   help="--field-corners auto against the truth: N random render cases (foos_vision.field_bench), "
+                        "from case --field-auto-from")
+    p.add_argument("--field-auto-from", type=int, default=0, metavar="SEED", help="the first case's seed (default 0)")
     p.add_argument("--params-file", help="the filmed table's parameter file, for --real (default: the regulation table)")
     args = p.parse_args(argv)
+    if args.field_auto:
+        run_cli_body(lambda: run_field_auto(args.field_auto, args.field_auto_from))
+        return
     if args.real:
         run_cli_body(lambda: run_real(Path(args.real), args.params_file))
         return

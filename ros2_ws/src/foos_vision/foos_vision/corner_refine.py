@@ -153,13 +153,14 @@ def _inner_face_seen(a: np.ndarray, b: np.ndarray, camera_xy: np.ndarray) -> boo
     return float(np.dot(camera_xy - a, inward)) > 0.0
 
 
-def _fit_corners(table: _Table, start: np.ndarray, edges: list[_Edge]) -> tuple[np.ndarray, float]:
+def _fit_corners(table: _Table, start: np.ndarray, edges: list[_Edge],
+                 focal_sigma: float = FOCAL_SIGMA) -> tuple[np.ndarray, float]:
     """Gauss-Newton on the 8 corner coordinates and the focal length's scale: edge points onto their projected
     lines, corners near start. The focal length matters to the walls' top edges only; four corners off by a pixel
     or two make it 10 % off in an oblique view, and the top edges then pull the corners off as far."""
     def residuals(flat: np.ndarray) -> np.ndarray:
         return np.concatenate([_edge_residuals(table, flat[:8].reshape(4, 2), flat[8], edges) / EDGE_SIGMA_PX,
-                               (flat[:8] - start.ravel()) / CLICK_SIGMA_PX, [(flat[8] - 1.0) / FOCAL_SIGMA]])
+                               (flat[:8] - start.ravel()) / CLICK_SIGMA_PX, [(flat[8] - 1.0) / focal_sigma]])
 
     flat = np.append(start.ravel(), 1.0)
     r = residuals(flat)
@@ -354,3 +355,32 @@ def _project(projection: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Table points (N, 3) to undistorted pixels."""
     homogeneous = np.column_stack([np.asarray(points, float), np.ones(len(points))]) @ projection.T
     return homogeneous[:, :2] / homogeneous[:, 2:]
+
+
+def fit_corners_to_lines(start: np.ndarray, lines: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+                         camera_matrix: np.ndarray, image_size: tuple[int, int], half_width: float, half_length: float,
+                         wall_height: float, wall_thickness: float,
+                         focal_sigma: float = FOCAL_SIGMA) -> tuple[np.ndarray, float, list[np.ndarray]]:
+    """The corners (undistorted px) whose camera puts each 3D line (start, end, table frame m) through the pixels
+    found on it (undistorted), from start: (corners, focal scale, per line the points' signed distances, px).
+    focal_sigma: how well camera_matrix's focal length is known (relative).
+    field_auto uses it for the felt's outline, whose near end is a wall's top edge where the wall hides the surface."""
+    table = _Table(half_width, half_length, wall_height, wall_thickness, camera_matrix, image_size)
+    edges = [_Edge(np.asarray(a, float), np.asarray(b, float), np.asarray(p, float)) for a, b, p in lines]
+    corners, focal_scale = _fit_corners(table, np.asarray(start, float), edges, focal_sigma)
+    return corners, focal_scale, _edge_residuals(table, corners, focal_scale, edges, per_edge=True)
+
+
+def camera_of_corners(corners: np.ndarray, camera_matrix: np.ndarray, image_size: tuple[int, int], half_width: float,
+                      half_length: float) -> np.ndarray:
+    """The camera centre (table frame, m) the field's corners (undistorted px) imply with this camera matrix."""
+    table = _Table(half_width, half_length, 0.0, 0.0, camera_matrix, image_size)
+    return camera_centre(table.projection(np.asarray(corners, float)))
+
+
+def wall_faces_seen(camera_xyz: np.ndarray, half_width: float, half_length: float) -> list[bool]:
+    """Per wall from corner i to i + 1 (CORNER_ORDER), whether the camera sees its inner face (and the surface's
+    edge along it)."""
+    corners = np.array([(-half_width, -half_length), (half_width, -half_length), (half_width, half_length),
+                        (-half_width, half_length)])
+    return [_inner_face_seen(corners[i], corners[(i + 1) % 4], np.asarray(camera_xyz)[:2]) for i in range(4)]

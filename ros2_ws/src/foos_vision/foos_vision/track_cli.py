@@ -16,17 +16,22 @@ from foos_bag import BagWriter, write_ball_detections, write_ball_states
 from foos_core.camera_model import load_intrinsics
 from foos_core.command_line import run_cli
 from foos_core.field_size import parse_field_size, write_field_sized
+from foos_core.table_geometry import TableGeometry
+from foos_core.table_params import load_params
 
 from .annotate import Annotator
 from .backfill import OfflineTracker
 from .bag_inputs import read_joint_track
 from .detector import BALL_COLOR_NAMES
 from .errors import MarkersError, VisionError
-from .field_corners import FieldCorners, field_reference
+from .field_auto import find_field_corners, is_auto, still_frames
+from .field_corners import FieldCorners, field_reference, option_given, parse_field_corners
 from .figure_mask import FigureGeometry
 from .tracker import BallTracker, TrackerConfig, choose_colour
 from .velocity import central_differences
 from .video_io import VideoReader
+
+LOW_CONFIDENCE = 0.5  # --field-corners auto: below this the run warns
 
 DESCRIPTION = """\
 Track the ball in a video of the table and write a rosbag2 bag (MCAP) with
@@ -47,6 +52,12 @@ its rods and figures keep the regulation layout's proportions (foos_core.field_s
 describes a table in full instead (or is the table --field-size resizes). The ball plane is reached by
 the parallax the camera implies (--intrinsics when given, else the focal length the corners reveal).
 
+--field-corners auto finds the corners in the first 2 s (the felt's outline, its four sides fitted with
+lines, the walls' height where the camera is behind one) and prints them with how sure it is; then they
+are used as given ones. The home end (-y) is taken to be the left end of a field lying across the image,
+the bottom end of one lying up it (no picture tells the ends apart); for the other way round give the
+printed corners in the order 3, 4, 1, 2. No field found: one line, exit 2, no bag written.
+
 Offline, each new track is also followed backward in time from its first detections, over the
 frames just before it, to recover a ball that came out half hidden from under a rod or a foot
 before the track started (tracker_node, online, cannot do this; --no-backfill tracks as it does).
@@ -60,6 +71,7 @@ of its colour. Frames more than 0.1 s from any reading are tracked without the m
 Examples:
   track_video game.mp4 --markers table_markers.yaml --out game_bag
   track_video game.mp4 --field-corners 412,880,1510,875,1398,170,520,168 --field-size 1.12,0.64 --out bag
+  track_video game.mp4 --field-corners auto --field-size 1.12,0.64 --out bag
   track_video game.mp4 --markers m.yaml --out bag --joint-states game_rods_bag --start-time 12.5
   track_video game.mp4 --markers m.yaml --out bag --ball-color yellow --intrinsics cam.yaml \\
       --csv-pixels px.csv --csv-metres m.csv --annotate seen.mp4
@@ -72,9 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("video", help="video file (anything OpenCV/FFmpeg decodes: mp4, avi, mkv, ...)")
     p.add_argument("--markers", help="markers YAML: ArUco dictionary, tag size, tag centres [x, y, z] in m")
-    p.add_argument("--field-corners", metavar="U1,V1,U2,V2,U3,V3,U4,V4",
+    p.add_argument("--field-corners", metavar="U1,V1,U2,V2,U3,V3,U4,V4|auto",
                    help="instead of --markers: pixels of the playing field's corners at (-x,-y), (+x,-y), (+x,+y), "
-                        "(-x,+y) of the table frame (see above)")
+                        "(-x,+y) of the table frame, or auto to find them in the first frames (see above)")
     p.add_argument("--out", required=True, help="bag directory to create (must not exist)")
     p.add_argument("--ball-color", default="auto", choices=("auto",) + BALL_COLOR_NAMES,
                    help="ball colour; auto picks it from the first frames (default auto)")
@@ -111,9 +123,12 @@ def track_video(args: argparse.Namespace) -> int:
             raise VisionError(f"{extra} exists; choose a new output path")
     if args.annotate and Path(args.annotate).suffix.lower() not in (".mp4", ".png"):
         raise VisionError("--annotate takes an .mp4 or .png path")
-    layout = field_reference(args.markers, args.field_corners)
-    corners = layout if isinstance(layout, FieldCorners) else None
     intrinsics = load_intrinsics(args.intrinsics) if args.intrinsics else None
+    if is_auto(args.field_corners) and not option_given(args.markers):
+        layout = _found_corners(args, intrinsics)
+    else:
+        layout = field_reference(args.markers, args.field_corners)
+    corners = layout if isinstance(layout, FieldCorners) else None
     reader = VideoReader(args.video, args.fps)
     if corners is not None and reader.width > 0 and reader.height > 0:  # else checked on the first frame
         corners.check_in_image(reader.width, reader.height)
@@ -213,6 +228,26 @@ def track_video(args: argparse.Namespace) -> int:
               f"(corrupt or cut short); the bag holds the frames before", file=sys.stderr)
         return 1
     return 0
+
+
+def _found_corners(args: argparse.Namespace, intrinsics) -> FieldCorners:
+    """--field-corners auto: the corners found in the video's first frames (FieldNotFound where there is no field);
+    what was found, and how sure, is printed."""
+    table = TableGeometry.of(args.params_file)
+    wall_height = float(load_params(args.params_file)["field"]["wall_height"])
+    probe = VideoReader(args.video, args.fps)
+    try:
+        frames = still_frames(probe.frames(), probe.fps)
+    finally:
+        probe.close()
+    found = find_field_corners(frames, table.half_width, table.half_length, table.goal_half_width, wall_height,
+                               intrinsics)
+    print(f"track_video: {found.summary()}")
+    if found.confidence < LOW_CONFIDENCE:
+        print(f"track_video: warning: the field found is not sure (confidence {found.confidence:.2f}): check it with "
+              f"--annotate, or give --field-corners U1,V1,... (or --field-size if the table is not the regulation one)",
+              file=sys.stderr)
+    return parse_field_corners(list(found.pixels.ravel()), "--field-corners auto")
 
 
 def _fit_summary(tracker: BallTracker, corners: FieldCorners | None) -> str:

@@ -12,7 +12,9 @@ states (or -p figure_mask:=false) it tracks as before, without waiting.
 The table is found in the image by the markers file's tags (`markers`, default the shipped layout) or, for a
 table without tags and a camera that does not move, by the pixels of the playing field's corners at (-x,-y),
 (+x,-y), (+x,+y), (-x,+y) of the table frame (`field_corners`: a list of 8 numbers, all integers or all
-decimals, or the string "U1,V1,...,U4,V4"); the field's size is the params_file's. Not both.
+decimals, or the string "U1,V1,...,U4,V4"); the field's size is the params_file's. Not both. `field_corners:=auto`
+finds them (field_auto) in field_auto.FRAMES frames spread over the first field_auto.SPAN_S seconds of stamps, which
+are not tracked; what was found is logged, and no field found ends the node with one line (exit 2).
 
     ros2 run foos_vision tracker_node --ros-args -p markers:=table_markers.yaml -p ball_color:=yellow
     ros2 run foos_vision tracker_node --ros-args -p field_corners:=[136,136,136,343,502,343,502,136] \
@@ -45,9 +47,12 @@ from foos_core.names import (
 )
 from foos_core.nodes import run_node
 from foos_core.stamps import stamp_to_seconds
+from foos_core.table_geometry import TableGeometry
+from foos_core.table_params import load_params
 
 from .errors import CameraConfigError, MarkersError, VisionError
-from .field_corners import field_reference, option_given
+from .field_auto import FRAMES, SPAN_S, FieldNotFound, find_field_corners, is_auto
+from .field_corners import field_reference, option_given, parse_field_corners
 from .figure_mask import FigureGeometry
 from .image_msg import image_to_bgr
 from .joint_sync import JointSync, ReadyFrame
@@ -71,7 +76,11 @@ class TrackerNode(Node):
         markers_file, corners = self.get_parameter("markers").value, self.get_parameter("field_corners").value
         if not option_given(corners) and not markers_file:
             markers_file = str(DEFAULT_MARKERS_FILE)
-        layout = field_reference(markers_file, corners, ("markers", "field_corners"))
+        # auto: the corners are found in the first frames, and the tracker made then.
+        self.still: list[np.ndarray] = []
+        self.still_last: float | None = None
+        layout = None if is_auto(corners) and not markers_file else field_reference(markers_file, corners,
+                                                                                      ("markers", "field_corners"))
         intrinsics_file = self.get_parameter("intrinsics").value
         config = TrackerConfig(
             ball_color=self.get_parameter("ball_color").value,
@@ -85,7 +94,8 @@ class TrackerNode(Node):
             figures = FigureGeometry(self.get_parameter("params_file").value or None)
             self.create_subscription(JointState, JOINT_STATES_TOPIC, self.on_joint_states, JOINT_QOS)
             self.create_timer(0.05, self.on_timer)
-        self.tracker = BallTracker(layout, config, figures)
+        self.config, self.figures = config, figures
+        self.tracker = BallTracker(layout, config, figures) if layout is not None else None
         self.warned_joints = False
         self.detection_pub = self.create_publisher(PointStamped, BALL_DETECTION_TOPIC, 50)
         self.state_pub = self.create_publisher(Odometry, BALL_STATE_TOPIC, 50)
@@ -115,9 +125,33 @@ class TrackerNode(Node):
         for ready in frames:
             self.track_one(ready.payload, ready.stamp, ready.joints)
 
+    def find_field(self, frame: np.ndarray, t: float) -> None:
+        """field_corners auto: keep this frame for the still table if it is far enough in time from the last kept,
+        and once there are enough, find the corners and make the tracker (FieldNotFound ends the node)."""
+        if self.still_last is not None and abs(t - self.still_last) < SPAN_S / FRAMES:
+            return
+        self.still.append(frame)
+        self.still_last = t
+        if len(self.still) < FRAMES:
+            return
+        table = TableGeometry.of(self.config.params_file)
+        wall_height = float(load_params(self.config.params_file)["field"]["wall_height"])
+        try:
+            found = find_field_corners(self.still, table.half_width, table.half_length, table.goal_half_width,
+                                       wall_height, self.config.intrinsics)
+        except FieldNotFound as error:  # named as this node's parameter, not track_video's option
+            raise FieldNotFound(str(error).replace("--field-corners", "field_corners")) from None
+        self.still = []
+        self.get_logger().info(found.summary())
+        corners = parse_field_corners(list(found.pixels.ravel()), "field_corners auto")
+        self.tracker = BallTracker(corners, self.config, self.figures)
+
     def track_one(self, msg: Image, t: float, joints) -> None:
         try:
             frame = image_to_bgr(msg)
+            if self.tracker is None:
+                self.find_field(frame, t)
+                return
             detection = self.tracker.process(frame, t, joints)
         except (VisionError, MarkersError, CameraConfigError):
             raise  # the table's description does not fit the images: the node ends with one line
