@@ -1,4 +1,4 @@
-"""The camera in the loop over DDS, as on a real table (ROS_DOMAIN_ID 57): `sim_node` films the simulated
+"""The camera in the loop over DDS, as on a real table (ROS_DOMAIN_ID 59): `sim_node` films the simulated
 table (`camera_rate`), `tracker_node` with its default parameters tracks the images, and a probe compares
 its detections with sim_node's true ball (/sim/ball/state) and times the chain (foos_vision.camera_loop,
 which `./scripts/bench_camera_loop` runs too)."""
@@ -12,7 +12,7 @@ from foos_vision.camera_loop import frame_times, run_loop, summarise
 
 pytestmark = pytest.mark.dds
 
-DOMAIN = 57
+DOMAIN = 59
 CAMERA_RATE = 30.0  # Hz of sim time; sim_node runs as fast as its renderer allows
 
 
