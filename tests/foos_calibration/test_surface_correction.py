@@ -53,7 +53,7 @@ def _correction(shapes, seed):
     params = load_params()
     geometry = TableGeometry.from_params(params)
     recording = gen.generate([], duration=60.0, seed=seed, shapes=shapes)
-    measured = analyse(recording.t, recording.p[:, :2], geometry)
+    measured = analyse(recording.t, recording.position[:, :2], geometry)
     selection = select_effects(measured.segments, measured.noise, theta_of(params), geometry)
     return selection, fit_surface_correction(measured.segments, selection.fit, measured.noise, geometry)
 
