@@ -1,5 +1,5 @@
-"""Shapes outside the vocabulary (a bowl, a saddle, a lifted corner) and the generic surface correction that
-calibration reports for them under `unexplained`, judged by its held-out gain."""
+"""Shapes outside the vocabulary (a bowl, a saddle, a lifted corner, a soft stretch of wall) and the generic
+corrections calibration reports for them under `unexplained`, judged by their held-out gain."""
 from __future__ import annotations
 
 import subprocess
@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 from foos_calibration import generate as gen
+from foos_calibration.bounces import GRID, BounceWindow, RestitutionResult
 from foos_calibration.mjsim import theta_of
 from foos_calibration.select import select_effects
 from foos_calibration.surface_correction import fit_surface_correction
 from foos_calibration.table_shapes import ShapeError, SurfaceShape, parse_shape
 from foos_calibration.tracks import analyse
+from foos_calibration.wall_segments import check_stretches, unexplained_entries
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
@@ -70,3 +72,50 @@ def test_a_bowl_is_found_where_it_is_and_a_flat_table_gets_no_correction():
     # The flat table: whatever the map fits to the noise, it does not hold on held-out rolls.
     _, flat = _correction([], seed=8)
     assert not flat.reported, flat.gain
+
+
+@pytest.mark.parametrize("y, expected", [(0.1, 0.4), (-0.4, 0.75)])
+def test_a_soft_stretch_of_wall_bounces_back_at_its_own_coefficient(y, expected):
+    # side_pos_x is soft between y -0.2 and +0.3: a bounce there comes back at 0.4, elsewhere at the nominal 0.75.
+    hidden = gen.HiddenEffects()
+    hidden.soft_walls = [parse_shape("soft_wall:wall=side_pos_x,from=-0.2,to=0.3,coefficient=0.4")]
+    table = gen.HiddenTable(hidden)
+    table.reset((0.28, y), (1.0, 0.0))
+    times, positions = table.roll(0.12, sample_dt=1e-3)
+    back = (times > 0.046) & (times < 0.056)
+    v_out = -np.polyfit(times[back], positions[back, 0], 1)[0]
+    assert v_out == pytest.approx(expected, abs=0.04)
+
+
+def _window(wall, hit, seed):
+    """A bounce window hitting `wall` at `hit` along it (only where it hit matters to the grouping)."""
+    rng = np.random.default_rng(seed)
+    xy = np.zeros((20, 2))
+    if wall.startswith("side"):
+        xy[:, 0] = np.linspace(0.0, 0.32 if wall == "side_pos_x" else -0.32, 20)
+        xy[:, 1] = hit
+    else:
+        xy[:, 1] = np.linspace(0.0, 0.58 if wall == "end_away" else -0.58, 20)
+        xy[:, 0] = hit
+    return BounceWindow(track=int(seed), wall=wall, t0=0.0, state=np.zeros(4), t=np.linspace(0, 0.3, 20),
+                        xy=xy + rng.normal(0, 1e-4, xy.shape))
+
+
+def test_only_the_stretch_that_bounces_differently_is_reported():
+    # Replay errors shaped as a real grid's: least at each window's own restitution, plus noise. The middle third of
+    # side_pos_x bounces at 0.45, every other stretch at the table's 0.75.
+    rng = np.random.default_rng(4)
+    windows, rows = [], []
+    for k in range(120):  # about 10 bounces in the soft third
+        wall = ("side_pos_x", "side_neg_x", "end_home", "end_away")[k % 4]
+        hit = rng.uniform(-0.55, 0.55) if wall.startswith("side") else rng.uniform(-0.3, 0.3)
+        true_e = 0.45 if wall == "side_pos_x" and -0.2 < hit < 0.2 else 0.75
+        windows.append(_window(wall, hit, k))
+        rows.append(40 * 1.5e-3**2 * (1 + ((GRID - true_e) / 0.05) ** 2) * rng.uniform(0.8, 1.2))
+    result = RestitutionResult(None, 0.75, {}, windows, np.array(rows))
+    checked = check_stretches(result, 0.75, TableGeometry.nominal())
+    reported = [c for c in checked if c["reported"]]
+    assert [c["stretch"] for c in reported] == ["side_pos_x between y -0.20 and +0.20 m"], checked
+    assert reported[0]["coefficient"] == pytest.approx(0.45, abs=0.03)
+    entries = unexplained_entries(checked, 0.0015)
+    assert len(entries) == 1 and entries[0]["kind"] == "wall_stretch_restitution"

@@ -31,7 +31,7 @@ from foos_sim.model_builder import ball_model_from_params
 
 from . import game_styles, games
 from .hidden_forces import BallBody, HiddenEffects, ball_wrench, world_spin
-from .table_shapes import ShapeError, SurfaceShape, parse_shape
+from .table_shapes import ShapeError, SurfaceShape, WallSegment, parse_shape, wall_at
 
 CONTROL_STEPS = 20  # physics steps between force updates (1 ms at 20 kHz)
 WALL_SLOW_ZONE = 0.01  # m from a wall where the loop steps one physics step at a time
@@ -101,7 +101,7 @@ class HiddenTable:
     def step_block(self) -> None:
         """CONTROL_STEPS physics steps with the hidden forces (single steps near a wall)."""
         self.data.xfrc_applied[self.ball_body] = self._wrench()
-        if self.hidden.restitution is None or not self.near_wall():
+        if (self.hidden.restitution is None and not self.hidden.soft_walls) or not self.near_wall():
             mujoco.mj_step(self.model, self.data, nstep=CONTROL_STEPS)
             return
         for _ in range(CONTROL_STEPS):
@@ -110,12 +110,15 @@ class HiddenTable:
             if normal is not None:
                 self._wall_normal = normal
             elif self._wall_normal is not None:
-                # The nominal bounce has just ended: rescale its normal speed to the hidden restitution.
+                # The nominal bounce has just ended: rescale its normal speed to the hidden restitution there.
                 n = self._wall_normal
-                v = self.data.qvel[:3]
-                vn = float(np.dot(v, n))
-                v += (self.hidden.restitution / self.nominal_restitution - 1.0) * vn * n
-                self.data.qvel[:3] = v
+                x, y = float(self.data.qpos[0]), float(self.data.qpos[1])
+                e = self.hidden.restitution_at(wall_at(x, y, (self.half[0], self.half[1])), x, y)
+                if e is not None:
+                    v = self.data.qvel[:3]
+                    vn = float(np.dot(v, n))
+                    v += (e / self.nominal_restitution - 1.0) * vn * n
+                    self.data.qvel[:3] = v
                 self._wall_normal = None
 
     def off_field(self) -> bool:
@@ -174,12 +177,13 @@ def random_launch(rng: np.random.Generator, half: np.ndarray, margin: float = 0.
 
 def generate(effects: Sequence[dict], duration: float = 60.0, seed: int = 0, fps: float = 120.0,
              noise: float = 0.0015, dropout: float = 0.05, params: dict | None = None,
-             progress: bool = False, shapes: Sequence[SurfaceShape] = ()) -> Recording:
+             progress: bool = False, shapes: Sequence[SurfaceShape | WallSegment] = ()) -> Recording:
     """Hand-launched rolls for `duration` seconds of recording (gaps where the ball is picked up), on a table
     with the hidden `effects` (the contract's vocabulary) and `shapes` of its surface (outside it)."""
     rng = np.random.default_rng(seed)
     hidden = HiddenEffects.from_effects(effects)
-    hidden.shapes = list(shapes)
+    hidden.shapes = [s for s in shapes if isinstance(s, SurfaceShape)]
+    hidden.soft_walls = [s for s in shapes if isinstance(s, WallSegment)]
     table = HiddenTable(hidden, params)
     t_all, p_all, launches = [], [], []
     clock = 0.0
@@ -307,8 +311,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--effect", action="append", type=parse_effect, default=[],
                         help="hidden effect NAME:key=value,... in the contract's vocabulary (repeatable)")
     parser.add_argument("--shape", action="append", type=_shape_argument, default=[],
-                        help="a shape of the surface outside the contract's vocabulary (free rolls, repeatable): "
-                             "bowl:depth=D, saddle:amplitude=A or ramp:corner=+x-y,rise=R,size=S (m)")
+                        help="a shape of the table outside the contract's vocabulary (free rolls, repeatable): "
+                             "bowl:depth=D, saddle:amplitude=A, ramp:corner=+x-y,rise=R,size=S (m) or "
+                             "soft_wall:wall=side_pos_x,from=A,to=B,coefficient=E (a stretch of one wall)")
     parser.add_argument("--random", type=int, default=0, metavar="N",
                         help="hide N effects drawn at random (names and magnitudes) instead")
     parser.add_argument("--duration", type=float, default=60.0, help="seconds of recording (default 60)")
@@ -362,8 +367,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                              shapes=args.shape)
         write_bag(recording, args.bag)
         if args.truth:
-            Path(args.truth).write_text(json.dumps({"effects": effects, "seed": args.seed,
-                                                    "shapes": [asdict(shape) for shape in args.shape]}, indent=2))
+            shapes = [{"type": type(shape).__name__, **asdict(shape)} for shape in args.shape]
+            Path(args.truth).write_text(json.dumps({"effects": effects, "seed": args.seed, "shapes": shapes}, indent=2))
     except (ValueError, KeyError, OSError, games.GameError, game_styles.StyleError) as error:
         print(f"generate_measured: {str(error).splitlines()[0] if str(error) else type(error).__name__}", file=sys.stderr)
         return 2
@@ -375,7 +380,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _shape_argument(text: str) -> SurfaceShape:
+def _shape_argument(text: str) -> SurfaceShape | WallSegment:
     try:
         return parse_shape(text)
     except ShapeError as error:

@@ -17,7 +17,7 @@ import numpy as np
 
 from foos_sim.effects import EFFECT_NAMES, ROLLING_MASS_FACTOR, Dent, EffectError
 
-from .table_shapes import SurfaceShape, shapes_gradient
+from .table_shapes import SurfaceShape, WallSegment, shapes_gradient
 
 
 @dataclass
@@ -31,6 +31,14 @@ class HiddenEffects:
     dents: list[Dent] = field(default_factory=list)
     restitution: float | None = None  # all walls; None: nominal
     shapes: list[SurfaceShape] = field(default_factory=list)  # outside the vocabulary (table_shapes)
+    soft_walls: list[WallSegment] = field(default_factory=list)  # stretches of wall with a restitution of their own
+
+    def restitution_at(self, wall: str, x: float, y: float) -> float | None:
+        """The hidden restitution of a bounce on `wall` at (x, y); None: the nominal one."""
+        for segment in self.soft_walls:
+            if segment.holds(wall, x, y):
+                return segment.coefficient
+        return self.restitution
 
     @classmethod
     def from_effects(cls, effects: Sequence[dict]) -> "HiddenEffects":

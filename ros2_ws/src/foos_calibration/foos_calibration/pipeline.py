@@ -14,7 +14,7 @@ import yaml
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
-from . import effect_gain, figures, surface_correction, surrogate, table_gain
+from . import effect_gain, figures, surface_correction, surrogate, table_gain, wall_segments
 from . import rods as rod_drives
 from .bounces import fit_restitution, fold_restitution
 from .evaluate import HORIZONS, choose_starts, errors_of, estimate_states, predict, summary
@@ -220,6 +220,9 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
         if figure:
             surface_correction.draw(surface, geometry, out_dir / figure)
         unexplained.append(surface.entry(measured.noise, geometry, figure))
+    table_e = restitution.coefficient if restitution.coefficient is not None else nominal_e
+    wall_stretches = wall_segments.check_stretches(restitution, table_e, geometry, options.seed)
+    unexplained += wall_segments.unexplained_entries(wall_stretches, measured.noise)
 
     report_effects = []
     for effect in effects:
@@ -241,6 +244,7 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
         # The generic correction, outside the vocabulary: tried on every ball, reported under `unexplained` only with
         # a held-out gain; it changes neither the calibrated file nor the `calibrated` errors.
         "surface_correction": surface.summary() if surface is not None else None,
+        "wall_stretches": wall_stretches,  # each stretch of wall with enough bounces: its own restitution and gain
         "data": {
             "bag": bag, "detections": int(len(t)), "duration_s": round(float(t[-1] - t[0]), 2),
             "tracks": len(measured.tracks), "rolling_segments": len(measured.segments),
@@ -363,6 +367,11 @@ def _unexplained_text(u: dict) -> str:
         lo, hi = g["ci95_drop"]
         return (f"{u['where']}: a generic correction, no cause named; on held-out rolls it would bring the error from "
                 f"{g['without']:.2f} to {g['with']:.2f} mm (drop 95 % [{lo:.3f}, {hi:.3f}] mm; noise {u['noise_mm']:.2f} mm)")
+    if u.get("kind") == "wall_stretch_restitution":
+        g = u["gain"]["bounce_replay_error_mm"]
+        lo, hi = g["ci95_drop"]
+        return (f"{u['where']}: no cause named; its own coefficient would bring the held-out bounces' replay error from "
+                f"{g['without']:.2f} to {g['with']:.2f} mm (drop 95 % [{lo:.3f}, {hi:.3f}] mm)")
     return f"{u['where']}: {u['residual_mm']:.1f} mm against {u['noise_mm']:.1f} mm ({u['ratio']:.1f}x)"
 
 
@@ -437,7 +446,7 @@ def markdown(report: dict, nominal_rolling: float, nominal_e: float) -> str:
         out += [f"| {u['where']} | {u['residual_mm']} | {u['noise_mm']} | {u['ratio']} |" for u in unexplained]
         out += ["", f"![unexplained]({FIGURE_FILE})" if report.get("figures") else ""]
         out += [f"- {_unexplained_text(u)}" + (f" ![{u['kind']}]({u['figure']})" if u.get("figure") else "")
-                for u in unexplained if u.get("kind") == "surface_height_map"]
+                for u in unexplained if u.get("kind") in ("surface_height_map", "wall_stretch_restitution")]
     if report.get("not_checked"):
         out += ["", "## What this recording did not let calibrate check", ""] + [f"- {item}" for item in report["not_checked"]]
     if report.get("rejected"):
