@@ -37,3 +37,27 @@ def stop_node(proc: subprocess.Popen) -> int:
             proc.wait(5)
             raise AssertionError("a node ignored SIGINT")
     return proc.returncode
+
+
+def spawn(domain: int, executable: str, *params: str, log) -> subprocess.Popen:
+    """`ros2 run foos_vision EXECUTABLE --ros-args -p ...` in its own ROS_DOMAIN_ID, output to `log`."""
+    args = ["ros2", "run", "foos_vision", executable, "--ros-args"]
+    for p in params:
+        args += ["-p", p]
+    return subprocess.Popen(args, env=workspace_env(domain), stdout=log, stderr=subprocess.STDOUT)
+
+
+def tracker_exit(domain: int, field_corners: str, video: Path, log_dir: Path, wait: float) -> tuple[int, str]:
+    """tracker_node with `field_corners` fed `video` (looped) until the node ends: its exit code and its log."""
+    log_path = log_dir / "tracker.log"
+    with open(log_path, "wb") as log, open(log_dir / "source.log", "wb") as source_log:
+        tracker = spawn(domain, "tracker_node", f"field_corners:={field_corners}", log=log)
+        source = spawn(domain, "video_source", f"source:={video}", "wait_for_subscribers:=1", "loop:=true",
+                       log=source_log)
+        try:
+            code = tracker.wait(wait)
+        finally:
+            stop_node(source)
+            if tracker.poll() is None:
+                stop_node(tracker)
+    return code, log_path.read_text()

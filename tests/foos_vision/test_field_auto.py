@@ -140,8 +140,7 @@ def test_tracker_node_auto_finds_the_field_then_tracks(overhead_video, tmp_path)
     from geometry_msgs.msg import PointStamped
     from rclpy.executors import SingleThreadedExecutor
 
-    from .helpers import stop_node
-    from .test_nodes_dds import spawn
+    from .helpers import spawn, stop_node
 
     domain = 57
     context = rclpy.Context()
@@ -177,23 +176,9 @@ def test_tracker_node_auto_finds_the_field_then_tracks(overhead_video, tmp_path)
 @pytest.mark.dds
 @pytest.mark.timeout(120)
 def test_tracker_node_auto_without_a_field_ends_in_one_line(tmp_path):
-    from .helpers import stop_node
-    from .test_nodes_dds import spawn
+    from .helpers import tracker_exit
 
-    domain = 58
-    video = noise_video(tmp_path / "noise.mp4")
-    log_path = tmp_path / "tracker.log"
-    with open(log_path, "wb") as log, open(tmp_path / "source.log", "wb") as source_log:
-        tracker = spawn(domain, "tracker_node", "field_corners:=auto", log=log)
-        source = spawn(domain, "video_source", f"source:={video}", "wait_for_subscribers:=1", "loop:=true",
-                       log=source_log)
-        try:
-            code = tracker.wait(90)
-        finally:
-            stop_node(source)
-            if tracker.poll() is None:
-                stop_node(tracker)
-    text = log_path.read_text()
+    code, text = tracker_exit(58, "auto", noise_video(tmp_path / "noise.mp4"), tmp_path, 90)
     assert code == 2, text
     errors = [line for line in text.splitlines() if "error" in line]
     assert len(errors) == 1 and errors[0].startswith("tracker_node: error: field_corners auto:"), text

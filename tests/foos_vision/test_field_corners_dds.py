@@ -16,9 +16,8 @@ from foos_core.stamps import seconds_to_stamp, stamp_to_seconds
 from foos_core.table_geometry import TableGeometry
 from foos_sim.camera.render import read_truth
 
-from .helpers import stop_node
+from .helpers import spawn, stop_node, tracker_exit
 from .test_field_corners import clicked, field_corner_pixels, rendered_camera
-from .test_nodes_dds import spawn
 
 pytestmark = pytest.mark.dds
 
@@ -88,19 +87,7 @@ def test_tracker_node_tracks_from_field_corners(overhead_video, tmp_path):
 @pytest.mark.timeout(90)
 def test_tracker_node_refuses_corners_outside_its_images(overhead_video, tmp_path):
     """The image size is known only once a frame arrives: the first frame ends the node with one line."""
-    domain = 56
-    log_path = tmp_path / "tracker.log"
-    with open(log_path, "wb") as log, open(tmp_path / "source.log", "wb") as source_log:
-        tracker = spawn(domain, "tracker_node", "field_corners:=136,136,136,343,702,343,702,136", log=log)
-        source = spawn(domain, "video_source", f"source:={overhead_video}", "wait_for_subscribers:=1", "loop:=true",
-                       log=source_log)
-        try:
-            code = tracker.wait(45)
-        finally:
-            stop_node(source)
-            if tracker.poll() is None:
-                stop_node(tracker)
-    text = log_path.read_text()
+    code, text = tracker_exit(56, "136,136,136,343,702,343,702,136", overhead_video, tmp_path, 45)
     assert code == 2, text
     errors = [line for line in text.splitlines() if "error" in line]
     assert errors == ["tracker_node: error: field_corners: corner 3 (702, 343) lies outside the 640x480 image"], text

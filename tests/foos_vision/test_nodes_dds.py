@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import signal
-import subprocess
 import time
 
 import numpy as np
@@ -14,16 +13,9 @@ from rclpy.executors import SingleThreadedExecutor
 
 from foos_sim.camera.render import read_truth
 
-from .helpers import stop_node, workspace_env
+from .helpers import spawn, stop_node
 
 pytestmark = pytest.mark.dds
-
-
-def spawn(domain: int, executable: str, *params: str, log) -> subprocess.Popen:
-    args = ["ros2", "run", "foos_vision", executable, "--ros-args"]
-    for p in params:
-        args += ["-p", p]
-    return subprocess.Popen(args, env=workspace_env(domain), stdout=log, stderr=subprocess.STDOUT)
 
 
 @pytest.mark.timeout(120)
