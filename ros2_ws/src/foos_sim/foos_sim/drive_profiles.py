@@ -111,12 +111,12 @@ class ProfileDrives:
             self._held = False
         self.next_due = self.history.next_due(time)
 
-    def sub_targets(self, time: float, h: float, n: int) -> np.ndarray:
-        """(n, 16) servo targets for n sub-steps of h from `time` (one evaluation, apart from targets()' block)."""
+    def sub_targets(self, time: float, middles: np.ndarray) -> np.ndarray:
+        """(n, 16) servo targets at `middles` (s after `time`: the sub-steps' middles), in one evaluation apart
+        from targets()' block."""
         if time >= self.next_due - _TIME_EPS:
             self._update(time)
-        offsets = (np.arange(n) + 0.5)[:, None] * h
-        return scurve.evaluate(self.plan, time - self.plan_time + offsets + self.lead)[0]
+        return scurve.velocity(self.plan, time - self.plan_time + middles[:, None] + self.lead)
 
     def targets(self, time: float, h: float) -> Optional[np.ndarray]:
         if time >= self.next_due - _TIME_EPS:
@@ -132,6 +132,6 @@ class ProfileDrives:
             i = int(k + 0.5)
             if i < len(block) and abs(k - i) < 1e-6:
                 return block[i]
-        self._block = block = scurve.evaluate(self.plan, time - self.plan_time + self._steps * h + self.lead)[0]
+        self._block = block = scurve.velocity(self.plan, time - self.plan_time + self._steps * h + self.lead)
         self._block_t0, self._block_h = time, h
         return block[0]
