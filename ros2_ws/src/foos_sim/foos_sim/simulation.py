@@ -225,7 +225,7 @@ class TableSimulation:
         """Set one team's 8 target joint velocities; returns them clipped to the drive limits."""
         if team not in self._team_ctrl:
             raise CommandError(f"unknown team `{team}` (expected one of {TEAMS})")
-        clipped = self.validate_command(command).clip(-self.command_limits, self.command_limits)
+        clipped = np.minimum(np.maximum(self.validate_command(command), -self.command_limits), self.command_limits)
         if self._profiles is not None:
             self._profiles.receive(self.time, TEAMS.index(team), clipped)  # acts through the drive's generator
             return clipped
