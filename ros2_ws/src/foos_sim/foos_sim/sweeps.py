@@ -122,15 +122,22 @@ class SweepTest:
         # exactly (_meeting); a path that bounces takes the sectors widened by the ball's travel (_part).
         wx, wy, wz = self.walls
         straight = abs(bx + vx * h) < wx and abs(by + vy * h) < wy and bz + vz * h < wz
-        window = self._scan(qpos, qvel, ctrl, h, straight, 0.0)
-        if straight and window.end >= window.start:
-            # A figure can strike the ball: it may then leave its straight path for the other figures.
-            window = self._scan(qpos, qvel, ctrl, h, straight, self.strike_slack)
+        window, striking = self._scan(qpos, qvel, ctrl, h, straight, 0.0, ())
+        if straight and striking:
+            # A figure can strike the ball: it may then leave its straight path for the other figures (until the step
+            # is planned again, after the sub-step of the strike). Where only one rod can strike, its own window
+            # needs no such slack; where another one can too, every rod takes it.
+            window, more = self._scan(qpos, qvel, ctrl, h, straight, self.strike_slack, striking)
+            if len(set(more) | set(striking)) > 1:
+                window, _ = self._scan(qpos, qvel, ctrl, h, straight, self.strike_slack, ())
         if window.end < window.start:
             return Window(0.0, 1.0, 0.0, LEAST_FIGURE_SPEED)  # no figure can touch the ball in this step
         return window
 
-    def _scan(self, qpos: list, qvel: list, ctrl: list, h: float, straight: bool, slack: float) -> Window:
+    def _scan(self, qpos: list, qvel: list, ctrl: list, h: float, straight: bool, slack: float,
+              exempt: tuple) -> tuple[Window, tuple]:
+        """The union of the rods' windows, the ball `slack` off its path for all rods but the `exempt` ones, and the
+        rods (indices) that have one."""
         b, bv = self.ball_qpos, self.ball_qvel
         bx, by, bz = qpos[b], qpos[b + 1], qpos[b + 2]
         vx, vy, vz = qvel[bv], qvel[bv + 1], qvel[bv + 2]
@@ -138,6 +145,7 @@ class SweepTest:
         # The ball's centre stays at least this far below the axes through the step (gravity only lowers it).
         below = self.axis_height - (bz + max(vz, 0.0) * h) - slack
         reach = self.foot_reach + travel
+        found = []
         rods, ys = self.rods, self.ys
         i = bisect.bisect_left(ys, by - reach)
         speed, turning, start, end = LEAST_FIGURE_SPEED, 0.0, 1.0, 0.0  # no part yet: start > end
@@ -163,7 +171,7 @@ class SweepTest:
             now, target = qvel[rod.rotate_dof], ctrl[rod.rotate_ctrl]
             fastest = max(abs(now), abs(target))
             if straight:
-                part = self._meeting(rod, qpos, qvel, ctrl, h, nearest, slack)
+                part = self._meeting(rod, qpos, qvel, ctrl, h, nearest, 0.0 if i - 1 in exempt else slack)
             else:
                 part = self._part(qpos[rod.rotate_qpos], now, target, h, math.atan2(dy, -dz), closest, travel)
             if part is None:
@@ -171,7 +179,8 @@ class SweepTest:
             turning = max(turning, fastest * self.figure_reach)
             speed = max(speed, slide_speed + fastest * self.figure_reach)
             start, end = min(start, part[0]), max(end, part[1])
-        return Window(start, end, turning, speed)
+            found.append(i - 1)
+        return Window(start, end, turning, speed), tuple(found)
 
     def _meeting(self, rod: RodIndex, qpos: list, qvel: list, ctrl: list, h: float, nearest: float,
                  slack: float) -> tuple[float, float] | None:
