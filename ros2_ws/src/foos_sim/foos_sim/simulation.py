@@ -56,7 +56,7 @@ from .drives import FollowingDrives, ImplicitForceLimits
 from .effects import DentSlopes
 from .impacts import ImpactSolver
 from .model_builder import build_model
-from .sweeps import RodIndex, SweepTest
+from .sweeps import RodIndex, SweepTest, free_box
 
 HOME_SCORES = "home"  # ball centre crosses y = +half_length inside the away goal mouth
 AWAY_SCORES = "away"
@@ -147,7 +147,8 @@ class TableSimulation:
                                      rotate_ctrl=int(self.model.actuator(f"{team}_{rod}_rotate").id),
                                      slide_qpos=int(slide.qposadr[0]), rotate_qpos=int(rotate.qposadr[0]),
                                      figures=int(layout["figures"]), spacing=float(layout["spacing"])))
-        self._sweeps = SweepTest(self.params, rods, self._figure_reach or 0.0, self._ball_qpos.start, self._ball_qvel.start)
+        self._sweeps = SweepTest(self.params, rods, self._figure_reach or 0.0, self._ball_qpos.start, self._ball_qvel.start,
+                                 free_box(self.model, self.ball_radius))
         # For each team (TEAMS order), which geoms are its figures', indexed by geom id.
         geom_teams = [figure_team(self.model.geom(g).name) for g in range(self.model.ngeom)]
         self._team_figure_geoms = tuple(np.array([owner == team for owner in geom_teams]) for team in TEAMS)

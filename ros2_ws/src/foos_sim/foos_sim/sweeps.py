@@ -39,6 +39,26 @@ LEAST_FIGURE_SPEED = 0.5  # m/s a figure near the ball is taken to move at least
 _TINY = 1e-9
 
 
+def free_box(model, ball_radius: float) -> tuple[float, float, float]:
+    """(|x|, |y|, z) limits of the ball's centre short of every wall and the cover (geoms named `wall*` and
+    `cover`, boxes): the side walls bound x, the end walls and the goals' parts that stand in front of them (a goal's
+    roof reaches 15 mm into the field) bound y, the cover z. Conservative: the nearest of each across the table."""
+    x_limit, y_limit, z_limit = math.inf, math.inf, math.inf
+    for g in range(model.ngeom):
+        name = model.geom(g).name
+        if not (name.startswith("wall") or name == "cover"):
+            continue
+        (px, py, pz), (sx, sy, sz) = model.geom_pos[g], model.geom_size[g]
+        inner_x, inner_y = abs(px) - sx, abs(py) - sy
+        if name == "cover":
+            z_limit = min(z_limit, pz - sz)
+        elif inner_x > inner_y:
+            x_limit = min(x_limit, inner_x)
+        else:
+            y_limit = min(y_limit, inner_y)
+    return float(x_limit - ball_radius), float(y_limit - ball_radius), float(z_limit - ball_radius)
+
+
 @dataclass(frozen=True)
 class RodIndex:
     """One rod's place and its slots in MuJoCo's arrays."""
@@ -83,7 +103,8 @@ class Window:
 
 
 class SweepTest:
-    def __init__(self, params: dict, rods: list[RodIndex], figure_reach: float, ball_qpos: int, ball_qvel: int):
+    def __init__(self, params: dict, rods: list[RodIndex], figure_reach: float, ball_qpos: int, ball_qvel: int,
+                 walls: tuple[float, float, float]):
         fig, rod_params = params["figure"], params["rods"]
         radius = float(params["ball"]["radius"]) + CONTACT_MARGIN
         foot_x, foot_y, _ = (float(v) for v in fig["foot_size"])
@@ -105,10 +126,10 @@ class SweepTest:
         # How far off its straight path another figure's strike may carry the ball before the step is planned again
         # (after a sub-step with an impact): (1 + e) times a sub-step's travel of the striking figure.
         self.strike_slack = (1.0 + float(params["figures"]["restitution"])) * FIGURE_STEP
-        field = params["field"]
-        ball = float(params["ball"]["radius"])
-        # Where the ball's centre meets a wall or the cover: a path that gets there bounces within the step.
-        self.walls = (float(field["width"]) / 2 - ball, float(field["length"]) / 2 - ball, float(field["cover_height"]) - ball)
+        # |x|, |y| and z of the ball's centre beyond which it may meet a wall or the cover (free_box): a path that
+        # gets there may bounce within the step. The floor: a falling ball that lands in the step.
+        self.walls = walls
+        self.floor = float(params["ball"]["radius"]) + CONTACT_MARGIN
         self.rods = sorted(rods, key=lambda r: r.y)
         self.ys = [r.y for r in self.rods]
         self.ball_qpos, self.ball_qvel = ball_qpos, ball_qvel
@@ -121,7 +142,8 @@ class SweepTest:
         # On a straight path through the step (no wall or cover reached) the figures' meeting times are found
         # exactly (_meeting); a path that bounces takes the sectors widened by the ball's travel (_part).
         wx, wy, wz = self.walls
-        straight = abs(bx + vx * h) < wx and abs(by + vy * h) < wy and bz + vz * h < wz
+        straight = (abs(bx + vx * h) < wx and abs(by + vy * h) < wy and bz + vz * h < wz
+                    and (vz > -1e-3 or bz + vz * h > self.floor))
         window, striking = self._scan(qpos, qvel, ctrl, h, straight, 0.0, ())
         if straight and striking:
             # A figure can strike the ball: it may then leave its straight path for the other figures (until the step
