@@ -123,9 +123,6 @@ class SweepTest:
         # half-width across the table).
         foot_top = foot_bottom - float(fig["foot_size"][2])
         self.blocks = ((foot_top, foot_bottom, foot_y / 2, foot_x / 2), (-head, foot_top, body_y / 2, body_x / 2))
-        # How far off its straight path another figure's strike may carry the ball before the step is planned again
-        # (after a sub-step with an impact): (1 + e) times a sub-step's travel of the striking figure.
-        self.strike_slack = (1.0 + float(params["figures"]["restitution"])) * FIGURE_STEP
         # |x|, |y| and z of the ball's centre beyond which it may meet a wall or the cover (free_box): a path that
         # gets there may bounce within the step. The floor: a falling ball that lands in the step.
         self.walls = walls
@@ -145,27 +142,30 @@ class SweepTest:
         straight = (abs(bx + vx * h) < wx and abs(by + vy * h) < wy and bz + vz * h < wz
                     and (vz > -1e-3 or bz + vz * h > self.floor))
         window, striking = self._scan(qpos, qvel, ctrl, h, straight, 0.0, ())
-        if straight and striking:
-            # A figure can strike the ball: it may then leave its straight path for the other figures (until the step
-            # is planned again, after the sub-step of the strike). Where only one rod can strike, its own window
-            # needs no such slack; where another one can too, every rod takes it.
-            window, more = self._scan(qpos, qvel, ctrl, h, straight, self.strike_slack, striking)
-            if len(set(more) | set(striking)) > 1:
-                window, _ = self._scan(qpos, qvel, ctrl, h, straight, self.strike_slack, ())
+        if striking:
+            # The ball may bounce off a figure that can strike it and leave its straight path within the step: for the
+            # other rods its travel then bounds where it goes (the sector test), in any direction, its speed raised by
+            # at most twice the striking figure's until the step is planned again (after the sub-step of an impact, or
+            # the step's end). Where another rod can touch it too, every rod takes the sector test.
+            fine = window.turning * h * (window.end - window.start) > FIGURE_STEP
+            extra = 2.0 * window.figure_speed * (FIGURE_STEP / window.turning if fine else h)
+            window, more = self._scan(qpos, qvel, ctrl, h, straight, extra, striking)
+            if set(more) - set(striking):
+                window, _ = self._scan(qpos, qvel, ctrl, h, False, extra, ())
         if window.end < window.start:
             return Window(0.0, 1.0, 0.0, LEAST_FIGURE_SPEED)  # no figure can touch the ball in this step
         return window
 
-    def _scan(self, qpos: list, qvel: list, ctrl: list, h: float, straight: bool, slack: float,
+    def _scan(self, qpos: list, qvel: list, ctrl: list, h: float, straight: bool, extra: float,
               exempt: tuple) -> tuple[Window, tuple]:
-        """The union of the rods' windows, the ball `slack` off its path for all rods but the `exempt` ones, and the
-        rods (indices) that have one."""
+        """The union of the rods' windows and the rods (indices) that have one. On a straight path each rod's meeting
+        times (_meeting), or with `extra` travel the sector test for all but the `exempt` rods."""
         b, bv = self.ball_qpos, self.ball_qvel
         bx, by, bz = qpos[b], qpos[b + 1], qpos[b + 2]
         vx, vy, vz = qvel[bv], qvel[bv + 1], qvel[bv + 2]
-        travel = math.sqrt(vx * vx + vy * vy + vz * vz) * h + slack
+        travel = math.sqrt(vx * vx + vy * vy + vz * vz) * h + extra
         # The ball's centre stays at least this far below the axes through the step (gravity only lowers it).
-        below = self.axis_height - (bz + max(vz, 0.0) * h) - slack
+        below = self.axis_height - (bz + max(vz, 0.0) * h) - extra
         reach = self.foot_reach + travel
         found = []
         rods, ys = self.rods, self.ys
@@ -192,8 +192,8 @@ class SweepTest:
                 continue
             now, target = qvel[rod.rotate_dof], ctrl[rod.rotate_ctrl]
             fastest = max(abs(now), abs(target))
-            if straight:
-                part = self._meeting(rod, qpos, qvel, ctrl, h, nearest, 0.0 if i - 1 in exempt else slack)
+            if straight and (extra == 0.0 or i - 1 in exempt):
+                part = self._meeting(rod, qpos, qvel, ctrl, h, nearest)
             else:
                 part = self._part(qpos[rod.rotate_qpos], now, target, h, math.atan2(dy, -dz), closest, travel)
             if part is None:
@@ -204,10 +204,9 @@ class SweepTest:
             found.append(i - 1)
         return Window(start, end, turning, speed), tuple(found)
 
-    def _meeting(self, rod: RodIndex, qpos: list, qvel: list, ctrl: list, h: float, nearest: float,
-                 slack: float) -> tuple[float, float] | None:
+    def _meeting(self, rod: RodIndex, qpos: list, qvel: list, ctrl: list, h: float, nearest: float) -> tuple[float, float] | None:
         """(start, end) fractions of the step between the first and the last moment the rod's figure nearest to the
-        ball comes within the ball's radius (and CONTACT_MARGIN and `slack`) of it, the ball on its straight path
+        ball comes within the ball's radius (and CONTACT_MARGIN) of it, the ball on its straight path
         and the rod turning and sliding at its drive's target; None if it never does. Conservative advancement:
         the gap closes no faster than the ball's speed plus the figure's, so a gap d is safe for d / that long.
         A drive not yet at its target (a jolt) may lag its path by the difference times the time."""
@@ -218,7 +217,7 @@ class SweepTest:
         reach = self.figure_reach
         lag = abs(qvel[rod.rotate_dof] - turn) * reach + abs(qvel[rod.slide_dof] - slide)  # m/s off the path
         closing = math.sqrt(vx * vx + vy * vy + vz * vz) + abs(turn) * reach + abs(slide) + lag
-        touch = self.radius + slack
+        touch = self.radius
         blocks = self.blocks
 
         def gap(t: float) -> float:
