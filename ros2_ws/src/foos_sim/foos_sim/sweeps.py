@@ -4,25 +4,25 @@ A fast step is 2 ms; a foot at the jerk-limited drives' 314 rad/s moves 48 mm in
 (foos_sim.impacts) see a figure point move in a straight line through a step, so a step in which a fast figure
 can meet the ball is taken in sub-steps of at most FIGURE_STEP of the figure's travel (foos_sim.simulation).
 This module decides where that is needed, from the figures' shape (the regulation figure: a foot block, and a
-body from the foot up through the rod to the head; foos_sim.model_builder):
+body from the foot up through the rod to the head; foos_sim.model_builder). A rod is looked at only when the
+ball can come within a foot's reach of its axis in the step (a ball on the field stays axis_height - r below
+the axes: no head reaches it, 0.041 m + r = 0.059 < 0.0605) and within a figure's half-width plus r of the
+nearest figure across the table. Then:
 
-- In a rod's cross-section (y, z about its axis) a figure is two rectangles turning with the rod: on the foot
-  side everything lies within a foot's half-thickness of the figure's centre line and within the foot's far
-  corner of the axis; on the head side within the body's half-thickness and the head's corner. A ball (radius
-  r) at distance rho from the axis and angle phi can touch the foot side only while the figure points within
-  asin((half-thickness + r) / rho) of phi, and only when rho <= corner + r; the head side likewise about
-  phi + pi.
-- Over the step the ball moves (its speed times the step: it comes closer by at most that, its angle changes
-  by at most that over rho) and the rod turns between its angle now and its angle after a step at its velocity
-  now or its drive's target, whichever is further (a drive follows its target monotonically).
-- A ball on the field stays below the axis by the axis height less the ball's top height in the step: no head
-  reaches it (0.041 m + r = 0.059 < 0.0605), and a foot only from within 73 mm of the rod's line.
-- Across the table, the ball is within the figure's half-width plus r of the nearest figure's centre (its
-  slide and the ball move in the step too).
+- On a straight path (the ball short of every wall, the cover and a landing within the step: free_box), the
+  first and the last moment at which the figure's blocks come within r + CONTACT_MARGIN of the ball, the rod
+  turning and sliding at its drive's target, by conservative advancement (_meeting): the gap closes no faster
+  than the ball's speed plus the figure's, so a gap d is safe for d / that long.
+- Otherwise, and for the other rods once a figure can strike the ball (it may bounce off it within the step and
+  keep its speed but not its direction), the sector test (_part): in a rod's cross-section the foot side lies
+  within a foot's half-thickness of the figure's centre line and the head side within the body's, so a ball at
+  distance rho and angle phi can be touched only while the figure points within asin((half-thickness + r) / rho)
+  of phi (or phi + pi), rho widened by the ball's travel in the step (and twice the striking figure's speed).
+  The rod turns between its angle now and after a step at its velocity now or its drive's target.
 
-window() gives, for the step, the part of it in which a figure can touch the ball: only that part needs
-sub-steps of FIGURE_STEP; before it and after it one sub-step each suffices (nothing can touch there). A
-kick at full speed sweeps the ball's sector (0.8 rad at a foot's reach) in 2.4 ms: most of a step.
+window() gives the part of the step in which a figure can touch the ball: only that part is cut into sub-steps
+of FIGURE_STEP; before it and after it one sub-step each (nothing can touch there). After a sub-step with an
+impact, foos_sim.simulation plans the rest of the step again.
 """
 from __future__ import annotations
 
