@@ -69,8 +69,7 @@ FIGURE_SPEED_MARGIN = 1.2
 # On the reference physics a ramping drive target (an acceleration limit) is updated this often: a ramp held
 # 1 ms moves the target at most a_max * 1 ms (0.05 m/s at 50 m/s^2), well inside the servo's own lag.
 RAMP_UPDATE = 0.001
-# While a figure can strike the ball within a fast step, that part of the step is taken in sub-steps
-# (foos_sim.sweeps: which figures can, when, and how short the sub-steps are).
+
 
 class CommandError(ValueError):
     """A rod command that a drive must refuse (wrong length, NaN or infinite values, unknown team)."""

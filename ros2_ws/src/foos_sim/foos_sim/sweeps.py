@@ -32,7 +32,8 @@ from dataclasses import dataclass
 
 # m of the figure's travel in one sub-step while it can touch the ball: the impacts were checked at up to 40 rad/s
 # on the former servos (a foot's edge 6.2 mm a step); 3 mm kept the kicks within 5 % of the 20 kHz reference
-# (docs/measurements/sim-2026-11-27-real-drives.md).
+# (docs/measurements/sim-2026-11-27-real-drives.md). Only the rotation counts: a slide at its 3.5 m/s moves 7 mm a
+# step, as the former drives' figures did (4.3 m/s) without sub-steps.
 FIGURE_STEP = 0.003
 CONTACT_MARGIN = 0.001  # m added to the ball's radius: what a figure within it may touch
 LEAST_FIGURE_SPEED = 0.5  # m/s a figure near the ball is taken to move at least (look-ahead gaps, foos_sim.impacts)
