@@ -359,6 +359,7 @@ class TableSimulation:
                     drives.disturb()
                 window = self._sweeps.window(data.qpos.tolist(), data.qvel.tolist(), data.ctrl.tolist(), h)
                 runs = window.sub_steps(h)
+                impacts.reachable = window.reachable
                 if len(runs) == 1 and runs[0][1] == 1:
                     impacts.set_motion(data, FIGURE_SPEED_MARGIN * window.figure_speed, h)
                     self._fast_step()
@@ -406,6 +407,7 @@ class TableSimulation:
                     data.ctrl[self._all_ctrl] = profiles.sub_targets(data.time, np.array([0.5 * rest]))[0]
                     window = self._sweeps.window(data.qpos.tolist(), data.qvel.tolist(), data.ctrl.tolist(), rest)
                     runs = window.sub_steps(rest)
+                    impacts.reachable = window.reachable
         finally:
             model.opt.timestep = self.timestep
             drives.set_timestep(self.timestep)

@@ -84,6 +84,7 @@ class Window:
     end: float
     turning: float
     figure_speed: float
+    reachable: frozenset = frozenset()  # the rotation dofs of the rods that can touch the ball (foos_sim.impacts)
 
     def sub_steps(self, h: float) -> list[tuple[float, int, float]]:
         """The step of h as (length, count, figure speed) runs of sub-steps: one before the window and one after
@@ -203,7 +204,7 @@ class SweepTest:
             speed = max(speed, slide_speed + fastest * self.figure_reach)
             start, end = min(start, part[0]), max(end, part[1])
             found.append(i - 1)
-        return Window(start, end, turning, speed), tuple(found)
+        return Window(start, end, turning, speed, frozenset(rods[k].rotate_dof for k in found)), tuple(found)
 
     def _meeting(self, rod: RodIndex, qpos: list, qvel: list, ctrl: list, h: float, nearest: float) -> tuple[float, float] | None:
         """(start, end) fractions of the step between the first and the last moment the rod's figure nearest to the
