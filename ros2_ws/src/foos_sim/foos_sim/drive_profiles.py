@@ -20,7 +20,7 @@ from typing import Optional
 
 import numpy as np
 
-from foos_core.names import AXES, JOINT_NAMES
+from foos_core.names import AXES, COMMAND_SIZE, JOINT_NAMES
 
 from . import scurve
 from .drive_limits import CommandHistory, DriveLimits
@@ -77,11 +77,15 @@ class ProfileDrives:
         self.delay, self.speed, self.accel, self.jerk = effective_limits(nominal, effects)
         self._min_delay = float(self.delay.min())
         self.history = CommandHistory(self.delay)
+        # Without dead time a drive acts on the last command at once: no history to search (every step counts).
+        self._instant = not bool(np.any(self.delay > 0.0))
+        self._latest = np.zeros(len(JOINT_NAMES))
         self._steps = (np.arange(BLOCK) + 0.5)[:, None]
         self.reset()
 
     def reset(self) -> None:
         self.history.reset()
+        self._latest[:] = 0.0
         zero = np.zeros(len(JOINT_NAMES))
         self.plan = scurve.plan(zero, zero, zero, self.accel, self.jerk)
         self.plan_time = 0.0
@@ -92,16 +96,19 @@ class ProfileDrives:
         self._held = False  # the settled targets have been handed out
 
     def receive(self, time: float, team: int, command: np.ndarray) -> None:
-        self.history.receive(time, team, command)
+        if self._instant:
+            self._latest[team * COMMAND_SIZE:(team + 1) * COMMAND_SIZE] = command
+        else:
+            self.history.receive(time, team, command)
         self.next_due = min(self.next_due, time + self._min_delay)
 
     def state(self, time: float) -> tuple[np.ndarray, np.ndarray]:
         """The setpoints' velocity and acceleration at `time` (on the current plan)."""
-        v, a, _ = scurve.evaluate(self.plan, time - self.plan_time)
-        return v, a
+        return scurve.state(self.plan, time - self.plan_time)
 
     def _update(self, time: float) -> None:
-        goal = np.clip(self.history.delayed_commands(time), -self.speed, self.speed)
+        commands = self._latest if self._instant else self.history.delayed_commands(time)
+        goal = np.minimum(np.maximum(commands, -self.speed), self.speed)
         if not np.array_equal(goal, self.plan.target):
             v, a = self.state(time)
             self.plan = scurve.plan(v, a, goal, self.accel, self.jerk)
@@ -109,14 +116,14 @@ class ProfileDrives:
             self.settled_at = time + float(self.plan.duration.max())
             self._block = None
             self._held = False
-        self.next_due = self.history.next_due(time)
+        self.next_due = np.inf if self._instant else self.history.next_due(time)
 
-    def sub_targets(self, time: float, h: float, n: int) -> np.ndarray:
-        """(n, 16) servo targets for n sub-steps of h from `time` (one evaluation, apart from targets()' block)."""
+    def sub_targets(self, time: float, middles: np.ndarray) -> np.ndarray:
+        """(n, 16) servo targets at `middles` (s after `time`: the sub-steps' middles), in one evaluation apart
+        from targets()' block."""
         if time >= self.next_due - _TIME_EPS:
             self._update(time)
-        offsets = (np.arange(n) + 0.5)[:, None] * h
-        return scurve.evaluate(self.plan, time - self.plan_time + offsets + self.lead)[0]
+        return scurve.velocity(self.plan, time - self.plan_time + middles[:, None] + self.lead)
 
     def targets(self, time: float, h: float) -> Optional[np.ndarray]:
         if time >= self.next_due - _TIME_EPS:
@@ -132,6 +139,6 @@ class ProfileDrives:
             i = int(k + 0.5)
             if i < len(block) and abs(k - i) < 1e-6:
                 return block[i]
-        self._block = block = scurve.evaluate(self.plan, time - self.plan_time + self._steps * h + self.lead)[0]
+        self._block = block = scurve.velocity(self.plan, time - self.plan_time + self._steps * h + self.lead)
         self._block_t0, self._block_h = time, h
         return block[0]

@@ -69,10 +69,11 @@ def kick(sim: TableSimulation, back_swing_deg: float, rod: str = "attack", gap: 
     period = max(sim.timestep, 0.00025)
     rod_speed = None
     for _ in range(round(0.3 / period)):
-        before = float(sim.joint_velocities()[rotate])
         sim.advance(period)
         if sim.figure_contacts()[0]:
-            rod_speed = before if rod_speed is None else rod_speed
+            # The rod's velocity through the (sub-)step in which the touch began: one read before a 2 ms fast step
+            # is its drive's setpoint at the middle of the step before (foos_sim.drives.FollowingDrives).
+            rod_speed = float(sim.last_touch_joint_velocities("home")[rotate]) if rod_speed is None else rod_speed
         elif rod_speed is not None:
             return Kick(float(np.linalg.norm(sim.ball_velocity()[:2])), abs(rod_speed) * lever, rod_speed)
     return None

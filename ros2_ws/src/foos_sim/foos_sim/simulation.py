@@ -24,12 +24,12 @@ before every 2 ms step; the reference updates them at its chunk boundaries, only
 due (within a chunk of its time) and every RAMP_UPDATE while a target ramps. Without drive effects nothing of
 this runs on the servos.
 
-While a figure near the ball moves more than FIGURE_STEP in a fast step (a kick on the jerk-limited drives),
-that step is taken in sub-steps (_substeps); the impacts' look-ahead follows the figures near the ball.
+Where a figure can strike the ball within a fast step and moves more than foos_sim.sweeps.FIGURE_STEP in it (a
+kick on the jerk-limited drives), that part of the step is taken in sub-steps (foos_sim.sweeps, _sub_steps); the
+impacts' look-ahead follows the figures that can strike the ball.
 """
 from __future__ import annotations
 
-import bisect
 import math
 from pathlib import Path
 from typing import Optional, Sequence
@@ -56,6 +56,7 @@ from .drives import FollowingDrives, ImplicitForceLimits
 from .effects import DentSlopes
 from .impacts import ImpactSolver
 from .model_builder import build_model
+from .sweeps import RodIndex, SweepTest, free_box
 
 HOME_SCORES = "home"  # ball centre crosses y = +half_length inside the away goal mouth
 AWAY_SCORES = "away"
@@ -68,12 +69,6 @@ FIGURE_SPEED_MARGIN = 1.2
 # On the reference physics a ramping drive target (an acceleration limit) is updated this often: a ramp held
 # 1 ms moves the target at most a_max * 1 ms (0.05 m/s at 50 m/s^2), well inside the servo's own lag.
 RAMP_UPDATE = 0.001
-# The fast physics' step is cut into sub-steps while a figure near the ball moves more than this in a step:
-# the impacts were checked at up to 40 rad/s (a foot's edge 6.2 mm a step); a kick from a 90-degree back-swing
-# on the jerk-limited drives reaches 75 rad/s, a full-speed one 314 rad/s (24 m/s at the foot's edge, 9 sub-steps).
-FIGURE_STEP = 0.003  # m
-NEAR_MARGIN = 0.01  # m beyond a figure's reach and the ball's radius (and its travel in a step): a rod near the ball
-LEAST_FIGURE_SPEED = 0.5  # m/s a figure near the ball is taken to move at least (look-ahead gaps, foos_sim.impacts)
 
 
 class CommandError(ValueError):
@@ -139,26 +134,20 @@ class TableSimulation:
         self._drive_effects = drive_limits
         self._shaper = (DriveShaper(drive_limits, np.tile(self.command_limits, len(TEAMS)))
                         if drive_limits and self._profiles is None else None)
-        # Each rod's y and the dofs and actuators of its slide and rotation, by y: the fast physics sub-steps
-        # when a figure near the ball moves fast (_substeps).
+        # Each rod's y and the dofs and actuators of its slide and rotation: the fast physics sub-steps where a
+        # figure can strike the ball (foos_sim.sweeps).
         rods = []
         for team in TEAMS:
             for rod in RODS:
                 slide, rotate = (self.model.joint(f"{team}_{rod}_{axis}") for axis in AXES)
-                y = float(self.params["rods"]["layout"][f"{team}_{rod}"]["y"])
-                rods.append((y, int(slide.dofadr[0]), int(rotate.dofadr[0]),
-                             int(self.model.actuator(f"{team}_{rod}_slide").id), int(self.model.actuator(f"{team}_{rod}_rotate").id),
-                             int(rotate.qposadr[0]), int(slide.qposadr[0]), int(self.params["rods"]["layout"][f"{team}_{rod}"]["figures"]),
-                             float(self.params["rods"]["layout"][f"{team}_{rod}"]["spacing"])))
-        self._rods = sorted(rods)
-        self._rod_ys = [r[0] for r in self._rods]
-        self._ball_y = self._ball_qpos.start + 1
-        self._near = (self._figure_reach or 0.0) + self.ball_radius + NEAR_MARGIN
-        self._axis_height = float(self.params["rods"]["axis_height"])
-        self._head_reach = float(self.params["figure"]["head_height"])
-        # How close to a figure's mid-plane the ball's centre comes when it touches it (and a margin).
-        self._touch = self.ball_radius + float(self.params["figure"]["foot_size"][1]) / 2 + NEAR_MARGIN / 2
-        self._touch_x = self.ball_radius + float(self.params["figure"]["foot_size"][0]) / 2 + NEAR_MARGIN / 2
+                layout = self.params["rods"]["layout"][f"{team}_{rod}"]
+                rods.append(RodIndex(y=float(layout["y"]), slide_dof=int(slide.dofadr[0]), rotate_dof=int(rotate.dofadr[0]),
+                                     slide_ctrl=int(self.model.actuator(f"{team}_{rod}_slide").id),
+                                     rotate_ctrl=int(self.model.actuator(f"{team}_{rod}_rotate").id),
+                                     slide_qpos=int(slide.qposadr[0]), rotate_qpos=int(rotate.qposadr[0]),
+                                     figures=int(layout["figures"]), spacing=float(layout["spacing"])))
+        self._sweeps = SweepTest(self.params, rods, self._figure_reach or 0.0, self._ball_qpos.start, self._ball_qvel.start,
+                                 free_box(self.model, self.ball_radius))
         # For each team (TEAMS order), which geoms are its figures', indexed by geom id.
         geom_teams = [figure_team(self.model.geom(g).name) for g in range(self.model.ngeom)]
         self._team_figure_geoms = tuple(np.array([owner == team for owner in geom_teams]) for team in TEAMS)
@@ -210,6 +199,14 @@ class TableSimulation:
         position = self._touch_position[TEAMS.index(team)]
         return None if position is None else position.copy()
 
+    def last_touch_joint_velocities(self, team: str) -> Optional[np.ndarray]:
+        """The 16 joint velocities as `team`'s figures last began touching the ball since reset(), or None: at the
+        start of the fast step or sub-step in which the touch began (the rods' velocities through it), or of the
+        reference's chunk (0.25 ms). A step's velocities read before it lag on the jerk-limited drives: the fast
+        physics reports its drive's setpoint at the middle of the last (sub-)step."""
+        velocities = self._touch_velocities[TEAMS.index(team)]
+        return None if velocities is None else velocities.copy()
+
     def state_is_finite(self) -> bool:
         """False once the physics has diverged (a NaN or infinite position anywhere in the model)."""
         return bool(np.all(np.isfinite(self.data.qpos)))
@@ -228,7 +225,7 @@ class TableSimulation:
         """Set one team's 8 target joint velocities; returns them clipped to the drive limits."""
         if team not in self._team_ctrl:
             raise CommandError(f"unknown team `{team}` (expected one of {TEAMS})")
-        clipped = self.validate_command(command).clip(-self.command_limits, self.command_limits)
+        clipped = np.minimum(np.maximum(self.validate_command(command), -self.command_limits), self.command_limits)
         if self._profiles is not None:
             self._profiles.receive(self.time, TEAMS.index(team), clipped)  # acts through the drive's generator
             return clipped
@@ -337,6 +334,7 @@ class TableSimulation:
                 # shaper's last update may be long ago).
                 data.ctrl[self._all_ctrl] = shaper.target(data.time, min(data.time - shaper.updated_at, RAMP_UPDATE))
                 shaper.schedule(data.time, RAMP_UPDATE)
+            np.copyto(self._step_qvel, data.qvel)
             mujoco.mj_step(model, data, nstep=chunk)
             remaining -= chunk
             ncon = data.ncon
@@ -359,12 +357,14 @@ class TableSimulation:
                 if targets is not None:
                     data.ctrl[self._all_ctrl] = targets
                     drives.disturb()
-                substeps, figure_speed = self._substeps()
-                if substeps == 1:
-                    impacts.set_motion(data, figure_speed, h)
+                window = self._sweeps.window(data.qpos.tolist(), data.qvel.tolist(), data.ctrl.tolist(), h)
+                runs = window.sub_steps(h)
+                impacts.reachable = window.reachable
+                if len(runs) == 1 and runs[0][1] == 1:
+                    impacts.set_motion(data, FIGURE_SPEED_MARGIN * window.figure_speed, h)
                     self._fast_step()
                 else:
-                    self._sub_steps(substeps, figure_speed)
+                    self._sub_steps(runs, h)
             else:
                 if shaper is not None and not shaper.idle:
                     data.ctrl[self._all_ctrl] = shaper.target(data.time, h)
@@ -374,79 +374,55 @@ class TableSimulation:
             if self._goal is None and (i & 1 or i == n - 1):
                 self._goal = self._goal_now()
 
-    def _substeps(self) -> tuple[int, float]:
-        """How many sub-steps the next step needs, and the fastest a figure that can touch the ball in it moves
-        (m/s, its rod's slide plus its rotation at the figure's reach, at its velocity now or its drive's target,
-        whichever is faster; the impacts' look-ahead).
-
-        A figure touches the ball only when it turns past it: its feet (or heads) sweep over an angle in the step,
-        and the ball lies in a sector around it seen from the rod's axis (half-width asin((ball radius + half
-        a foot's thickness + margin) / distance)). A rod spinning at full speed spends a sixth of a turn near the
-        ball; only those steps are cut, by the rotation's sweep at the figure's reach (FIGURE_STEP). A slide at
-        its 3.5 m/s moves 7 mm a step, as the former drives' figures did (4.3 m/s) without sub-steps."""
-        data, h = self.data, self.timestep
-        qpos, qvel, ctrl = data.qpos, data.qvel, data.ctrl
-        ball = self._ball_qpos.start
-        ball_x, ball_y, ball_z = float(qpos[ball]), float(qpos[ball + 1]), float(qpos[ball + 2])
-        vx, vy, vz = (float(v) for v in qvel[self._ball_qvel.start:self._ball_qvel.start + 3])
-        travel = math.sqrt(vx * vx + vy * vy + vz * vz) * h
-        near = self._near + travel
-        rods, ys = self._rods, self._rod_ys
-        i = bisect.bisect_left(ys, ball_y - near)
-        speed, substeps = LEAST_FIGURE_SPEED, 1
-        while i < len(ys) and ys[i] <= ball_y + near:
-            y, slide_dof, rotate_dof, slide, rotate, rotate_qpos, slide_qpos, figures, spacing = rods[i]
-            i += 1
-            dy, dz = ball_y - y, ball_z - self._axis_height
-            distance = math.hypot(dy, dz)
-            if distance > self._figure_reach + self._touch + travel:
-                continue
-            # Across the table: the ball within reach of the figure nearest to it (the rod slides in the step too).
-            across = ball_x - float(qpos[slide_qpos])
-            middle = (figures - 1) / 2  # figure k sits at (k - middle) * spacing from the rod's centre
-            nearest = (min(max(round(across / spacing + middle), 0), figures - 1) - middle) * spacing if figures > 1 else 0.0
-            slide_speed = max(abs(float(qvel[slide_dof])), abs(float(ctrl[slide])))
-            if abs(across - nearest) > self._touch_x + travel + slide_speed * h:
-                continue
-            now, target = float(qvel[rotate_dof]), float(ctrl[rotate])
-            angle = float(qpos[rotate_qpos])
-            low, high = angle + min(0.0, now * h, target * h), angle + max(0.0, now * h, target * h)
-            # The angle at which a figure points at the ball: 0 hangs straight down, + swings toward +y.
-            ball_angle = math.atan2(dy, -dz)
-            half = math.asin(min(1.0, (self._touch + travel) / max(distance, 1e-9)))
-            off = abs(math.remainder(ball_angle - 0.5 * (low + high), 2.0 * math.pi))
-            if off > 0.5 * (high - low) + half and (distance > self._head_reach + self._touch + travel
-                                                     or math.pi - off > 0.5 * (high - low) + half):
-                continue  # neither the feet nor the heads pass the ball in this step
-            turning = max(abs(now), abs(target)) * self._figure_reach
-            speed = max(speed, slide_speed + turning)
-            substeps = max(substeps, math.ceil(turning * h / FIGURE_STEP))
-        return substeps, FIGURE_SPEED_MARGIN * speed
-
-    def _sub_steps(self, substeps: int, figure_speed: float) -> None:
-        """One fast step as `substeps` shorter ones, the drives' targets taken for each."""
+    def _sub_steps(self, runs: list[tuple[float, int, float]], h: float) -> None:
+        """A fast step of h as runs of (length, count, figure speed) sub-steps (foos_sim.sweeps.Window.sub_steps),
+        the drives' targets taken at the middle of each. After a sub-step with an impact the ball has left the
+        straight path the runs were planned on: the rest of the step is planned again from there."""
         model, data, impacts, drives, profiles = self.model, self.data, self._impacts, self._drives, self._profiles
-        h = self.timestep / substeps
-        model.opt.timestep = h
-        drives.set_timestep(h)
-        impacts.set_motion(data, figure_speed, h)
+        end = data.time + h
         try:
-            for targets in profiles.sub_targets(data.time, h, substeps):
-                data.ctrl[self._all_ctrl] = targets
-                drives.disturb()
-                self._fast_step()
+            while runs:
+                middles, offset = [], 0.0
+                for length, count, _ in runs:
+                    middles.extend(offset + (k + 0.5) * length for k in range(count))
+                    offset += count * length
+                targets = profiles.sub_targets(data.time, np.array(middles))
+                k, struck = 0, False
+                for length, count, figure_speed in runs:
+                    model.opt.timestep = length
+                    drives.set_timestep(length)
+                    impacts.set_motion(data, FIGURE_SPEED_MARGIN * figure_speed, length)
+                    for _ in range(count):
+                        data.ctrl[self._all_ctrl] = targets[k]
+                        k += 1
+                        drives.disturb()
+                        struck = self._fast_step()
+                        if struck:
+                            break
+                    if struck:
+                        break
+                rest = end - data.time
+                runs = []
+                if struck and rest > 1e-3 * h:
+                    data.ctrl[self._all_ctrl] = profiles.sub_targets(data.time, np.array([0.5 * rest]))[0]
+                    window = self._sweeps.window(data.qpos.tolist(), data.qvel.tolist(), data.ctrl.tolist(), rest)
+                    runs = window.sub_steps(rest)
+                    impacts.reachable = window.reachable
         finally:
             model.opt.timestep = self.timestep
             drives.set_timestep(self.timestep)
 
-    def _fast_step(self) -> None:
-        """One step of the fast physics at the model's timestep, impacts included."""
+    def _fast_step(self) -> bool:
+        """One step of the fast physics at the model's timestep, impacts included; True if an impact changed the
+        ball's or a rod's motion in it."""
         model, data, impacts, drives, dents = self.model, self.data, self._impacts, self._drives, self._dent_slopes
         drives.update()
+        np.copyto(self._step_qvel, data.qvel)  # the velocities through this step (last_touch_joint_velocities)
         if dents is not None:
             data.xfrc_applied[self._ball_body, :2] = dents.force(*data.qpos[self._ball_qpos][:3].tolist())
         mujoco.mj_step1(model, data)
-        if impacts.resolve(data):
+        struck = impacts.resolve(data)
+        if struck:
             drives.after_impact()  # a rod may have been jolted
             mujoco.mj_step1(model, data)  # positions and velocities changed: collide and evaluate again
         mujoco.mj_step2(model, data)
@@ -455,6 +431,7 @@ class TableSimulation:
         if touching[0] or touching[1] or self._touching[0] or self._touching[1]:
             self._note_touches(touching)
             drives.disturb()  # a figure held by the ball: its drive may be past its limit
+        return struck
 
     def _note_touches(self, touching: Sequence[bool]) -> None:
         for team in (0, 1):
@@ -462,6 +439,7 @@ class TableSimulation:
                 if not self._touching[team]:
                     self._touch_count[team] += 1
                     self._touch_position[team] = self.data.qpos[self._ball_qpos][:3].copy()
+                    self._touch_velocities[team] = self._step_qvel[self._joint_qvel]
                 self._touched_in_call[team] = True
             self._touching[team] = touching[team]
 
@@ -521,6 +499,8 @@ class TableSimulation:
         self._touched_in_call = [False, False]
         self._touch_count = [0, 0]
         self._touch_position: list[Optional[np.ndarray]] = [None, None]
+        self._touch_velocities: list[Optional[np.ndarray]] = [None, None]
+        self._step_qvel = self.data.qvel.copy()
         if joint_positions is not None:
             values = np.asarray(joint_positions, dtype=float)
             if values.shape != (len(JOINT_NAMES),) or not np.all(np.isfinite(values)):
