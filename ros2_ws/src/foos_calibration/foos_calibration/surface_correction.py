@@ -221,7 +221,7 @@ def draw(correction: SurfaceCorrection, geometry: TableGeometry, path: Path) -> 
     import matplotlib  # here: only the figure needs it
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # here too: the figure alone needs it
 
     xs = np.linspace(-geometry.half_width, geometry.half_width, 69)
     ys = np.linspace(-geometry.half_length, geometry.half_length, 121)
