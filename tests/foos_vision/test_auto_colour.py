@@ -6,9 +6,9 @@ import cv2
 import numpy as np
 import pytest
 
-from foos_vision.ball_colour import ROD_LINE_MIN_DX, ROD_LINE_Y_TOL, MovingBallVotes
-from foos_vision.rod_lines import on_rod_line, rod_bands, rod_geometry
-from foos_vision.tracker import BallTracker, TrackerConfig
+from foos_vision.camera.rod_lines import on_rod_line, rod_bands, rod_geometry
+from foos_vision.detection.ball_colour import ROD_LINE_MIN_DX, ROD_LINE_Y_TOL, MovingBallVotes
+from foos_vision.tracking.tracker import BallTracker, TrackerConfig
 
 from .drawn_table import FPS, draw_ball, table_frame, write_layout
 

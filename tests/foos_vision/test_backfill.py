@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from foos_vision.backfill import OfflineTracker
-from foos_vision.tracker import BallTracker, TrackerConfig
+from foos_vision.tracking.backfill import OfflineTracker
+from foos_vision.tracking.tracker import BallTracker, TrackerConfig
 
 from .drawn_table import (
     FPS,

@@ -16,10 +16,10 @@ import pytest
 
 from foos_core.markers import MarkerLayout
 from foos_core.names import JOINT_NAMES
-from foos_vision.ball_search import PARTIAL_RUN
-from foos_vision.figure_mask import FigureGeometry, projection_from_mapping
-from foos_vision.rod_lines import rod_geometry, rod_mask
-from foos_vision.tracker import BallTracker, TrackerConfig
+from foos_vision.camera.figure_mask import FigureGeometry, projection_from_mapping
+from foos_vision.camera.rod_lines import rod_geometry, rod_mask
+from foos_vision.detection.ball_search import PARTIAL_RUN
+from foos_vision.tracking.tracker import BallTracker, TrackerConfig
 
 from . import drawn_table
 from .drawn_table import ORANGE_BGR, STEEL_BGR

@@ -8,7 +8,7 @@ import yaml
 
 from foos_core.camera_model import CameraConfig, load_intrinsics
 from foos_sim.camera.boards import board_views
-from foos_vision.geometry import Lens
+from foos_vision.camera.geometry import Lens
 
 from .helpers import ros2_run
 

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from foos_vision.detector import BallDetector, colour_model
+from foos_vision.detection.detector import BallDetector, colour_model
 
 FELT_BGR = (40, 140, 30)
 ORANGE_BGR = (20, 120, 250)

@@ -14,9 +14,9 @@ import pytest
 from foos_core.markers import load_markers
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
-from foos_vision.field_auto import DivisionLens, find_field_corners, home_end_first, still_frames
+from foos_vision.camera.field_auto import DivisionLens, find_field_corners, home_end_first, still_frames
+from foos_vision.camera.geometry import Lens, TagLocator, fit_mapping
 from foos_vision.field_bench import random_case, render_frames_of, true_corners
-from foos_vision.geometry import Lens, TagLocator, fit_mapping
 from foos_vision.video_io import VideoReader
 
 from .helpers import ros2_run

@@ -14,10 +14,10 @@ from foos_core.markers import BALL_CENTRE_HEIGHT
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 from foos_sim.camera.render import read_truth
-from foos_vision.corner_refine import refine_field_corners
-from foos_vision.field_corners import FieldCornersError, parse_field_corners
-from foos_vision.geometry import Lens, corner_camera_matrix, corner_focal, fit_field_corners
-from foos_vision.rod_lines import rod_geometry
+from foos_vision.camera.corner_refine import refine_field_corners
+from foos_vision.camera.field_corners import FieldCornersError, parse_field_corners
+from foos_vision.camera.geometry import Lens, corner_camera_matrix, corner_focal, fit_field_corners
+from foos_vision.camera.rod_lines import rod_geometry
 
 from .helpers import render, ros2_run
 from .test_track_video import one_line_error

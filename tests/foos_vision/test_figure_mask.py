@@ -12,9 +12,9 @@ from foos_bag import BagWriter, write_ball_detections, write_joint_states
 from foos_core.camera_model import load_camera
 from foos_core.names import JOINT_NAMES
 from foos_sim.camera.render import read_joints
-from foos_vision.figure_mask import FigureGeometry, JointTrack, joint_track, projection_from_mapping
-from foos_vision.geometry import PlaneMapping
-from foos_vision.tracker import BallTracker, TrackerConfig
+from foos_vision.camera.figure_mask import FigureGeometry, JointTrack, joint_track, projection_from_mapping
+from foos_vision.camera.geometry import PlaneMapping
+from foos_vision.tracking.tracker import BallTracker, TrackerConfig
 
 from . import drawn_table as dt
 from .helpers import ros2_run

@@ -9,9 +9,9 @@ import pytest
 
 from foos_core.camera_model import FISHEYE_RENDER_SCALE, CameraConfig, Intrinsics, load_camera
 from foos_core.markers import BALL_CENTRE_HEIGHT, MarkerLayout, load_markers
+from foos_vision.camera.geometry import Lens, fit_mapping, tag_centre
 from foos_vision.errors import CameraConfigError, MarkersError
-from foos_vision.geometry import Lens, fit_mapping, tag_centre
-from foos_vision.velocity import ConstantVelocityKalman, central_differences
+from foos_vision.tracking.velocity import ConstantVelocityKalman, central_differences
 
 
 def layout_at(z, heights=None):

@@ -7,8 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from foos_vision.motion_ball import MotionMap
-from foos_vision.tracker import BallTracker, TrackerConfig
+from foos_vision.detection.motion_ball import MotionMap
+from foos_vision.tracking.tracker import BallTracker, TrackerConfig
 
 from .drawn_table import FPS, draw_ball, table_frame, write_layout
 

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from foos_core.names import JOINT_NAMES
-from foos_vision.ball_search import PARTIAL_RUN
-from foos_vision.candidate_rules import WEAK_TRACK_FRAMES, WEAK_TRACK_LIMIT, weak_too_long
-from foos_vision.figure_mask import FigureGeometry
-from foos_vision.tracker import BallTracker, TrackerConfig
+from foos_vision.camera.figure_mask import FigureGeometry
+from foos_vision.detection.ball_search import PARTIAL_RUN
+from foos_vision.detection.candidate_rules import WEAK_TRACK_FRAMES, WEAK_TRACK_LIMIT, weak_too_long
+from foos_vision.tracking.tracker import BallTracker, TrackerConfig
 
 from .drawn_table import SCALE, STEEL_BGR, draw_ball, table_frame, to_pixel
 

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from foos_core.names import JOINT_NAMES
-from foos_vision.figure_mask import FigureGeometry, projection_from_mapping
-from foos_vision.geometry import Lens
-from foos_vision.rod_lines import fit_rod_shifts, rod_geometry, rod_mask
-from foos_vision.tracker import BallTracker, TrackerConfig
+from foos_vision.camera.figure_mask import FigureGeometry, projection_from_mapping
+from foos_vision.camera.geometry import Lens
+from foos_vision.camera.rod_lines import fit_rod_shifts, rod_geometry, rod_mask
+from foos_vision.tracking.tracker import BallTracker, TrackerConfig
 
 from .drawn_table import ORANGE_BGR, SCALE, draw_ball, table_frame
 

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from foos_vision.still_ball import MIN_SCORE, TEAM_BALLS, StillBallFinder
+from foos_vision.detection.still_ball import MIN_SCORE, TEAM_BALLS, StillBallFinder
 
 
 def drawn_still(ball=(1200, 500), ball_bgr=(235, 235, 235), heads_bgr=(30, 30, 30)):

@@ -1,4 +1,4 @@
-"""A motion-blurred ball (foos_vision.streaks): drawn streaks with a known mid-exposure centre, found and placed where a
+"""A motion-blurred ball (foos_vision.detection.streaks): drawn streaks with a known mid-exposure centre, found and placed where a
 rod crosses them, a figure hides an end or one side, a figure's blended edge is beside them, or the ball was struck from
 rest; a track started from streaks; what is not a streak; and the Kalman filter's covariance per detection. The tracker
 on rendered shots: test_streaks_video.py."""
@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from foos_vision.candidate_rules import STREAK_WIDTH, streak_ball
-from foos_vision.streaks import find_streaks
-from foos_vision.tracker import BallTracker, TrackerConfig
-from foos_vision.velocity import ConstantVelocityKalman
+from foos_vision.detection.candidate_rules import STREAK_WIDTH, streak_ball
+from foos_vision.detection.streaks import find_streaks
+from foos_vision.tracking.tracker import BallTracker, TrackerConfig
+from foos_vision.tracking.velocity import ConstantVelocityKalman
 
 from .drawn_table import draw_ball, table_frame
 

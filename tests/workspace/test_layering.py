@@ -155,3 +155,34 @@ def test_no_circle_of_imports_inside_a_package(package):
 def test_the_circle_check_sees_imports_at_any_depth():
     graph = {"a": {"b": 1}, "b": {"c": 2}, "c": {"a": 3}, "d": {"a": 4}}
     assert import_cycles(graph) == [["a", "b", "c"]] and import_cycles({"a": {"b": 1}, "b": {}}) == []
+
+
+# foos_vision's stages, in the order a frame flows: a module imports only those of its own stage or a lower one
+# (errors, the package's exceptions, lies under them all; the shells, at the package's top level, over them all).
+VISION_STAGES = ("errors", "camera", "detection", "tracking")
+
+
+def vision_stage(module: str) -> int:
+    """The stage's rank of a foos_vision module: its subpackage's place in VISION_STAGES; a top-level module other
+    than errors (or the package's __init__) is a shell, above every stage."""
+    first = module.split(".")[0]
+    return VISION_STAGES.index(first) if first in VISION_STAGES else len(VISION_STAGES)
+
+
+def imports_up_a_stage(graph: dict[str, dict[str, int]], stage) -> list[str]:
+    return [f"{module}:{line} imports {imported}" for module, targets in sorted(graph.items())
+            for imported, line in sorted(targets.items()) if stage(imported) > stage(module)]
+
+
+def test_vision_stages_import_only_their_own_or_lower_stages():
+    graph = intra_package_imports("foos_vision")
+    assert {m.split(".")[0] for m in graph if "." in m} == set(VISION_STAGES[1:])  # the stages are there
+    wrong = imports_up_a_stage(graph, vision_stage)
+    assert not wrong, "foos_vision: imports up a stage (errors < camera < detection < tracking < shells):\n" + \
+        "\n".join(wrong)
+
+
+def test_the_stage_check_sees_an_import_up_a_stage():
+    graph = {"camera.geometry": {"errors": 1}, "detection.ball_search": {"tracking.velocity": 2},
+             "track_cli": {"tracking.tracker": 3}, "errors": {}, "tracking.velocity": {}, "tracking.tracker": {}}
+    assert imports_up_a_stage(graph, vision_stage) == ["detection.ball_search:2 imports tracking.velocity"]

@@ -7,7 +7,7 @@ from collections import deque
 import cv2
 import numpy as np
 
-from .tracker import BallTracker, Detection
+from .tracking.tracker import BallTracker, Detection
 
 
 class Annotator:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from foos_bag import BagError, read_joint_states, topics
 from foos_core.names import JOINT_STATES_TOPIC
 
-from .figure_mask import JointStatesError, JointTrack, joint_track
+from .camera.figure_mask import JointStatesError, JointTrack, joint_track
 
 
 def read_joint_track(bag: str) -> JointTrack:

@@ -57,12 +57,12 @@ from foos_core.table_params import REFERENCE_PARAMS_FILE
 from foos_sim.camera.boards import board_views
 from foos_sim.camera.render import read_joints, read_truth
 
-from .backfill import OfflineTracker
+from .camera.figure_mask import FigureGeometry, joint_track
 from .field_bench import run_field_auto
-from .figure_mask import FigureGeometry, joint_track
 from .real_bench import run_cli_body, run_real
-from .tracker import BallTracker, TrackerConfig, choose_colour
-from .velocity import central_differences
+from .tracking.backfill import OfflineTracker
+from .tracking.tracker import BallTracker, TrackerConfig, choose_colour
+from .tracking.velocity import central_differences
 from .video_io import VideoReader
 
 AIRBORNE_Z = 0.0225  # m: ball centre more than 5 mm above its resting height

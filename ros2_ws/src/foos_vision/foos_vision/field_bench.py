@@ -29,10 +29,10 @@ from foos_sim.camera.scenarios import SimRollout
 from foos_sim.model_builder import build_mjcf
 from foos_sim.simulation import TableSimulation
 
-from .field_auto import FieldNotFound, find_field_corners, home_end_first
-from .field_corners import FieldCorners
-from .field_view import FieldView, TagFitStats
-from .tracker import TrackerConfig
+from .camera.field_auto import FieldNotFound, find_field_corners, home_end_first
+from .camera.field_corners import FieldCorners
+from .camera.field_view import FieldView, TagFitStats
+from .tracking.tracker import TrackerConfig
 
 # The felt's colours a render is given (the model's texture colour, linear RGB 0-1). The first is foos_sim's own.
 FELT_COLOURS = {

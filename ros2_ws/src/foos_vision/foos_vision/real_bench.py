@@ -38,11 +38,11 @@ import yaml
 
 from foos_core.table_geometry import TableGeometry
 
-from .backfill import OfflineTracker
+from .camera.field_corners import field_reference
+from .detection.still_ball import StillBallFinder
 from .errors import VisionError
-from .field_corners import field_reference
-from .still_ball import StillBallFinder
-from .tracker import BallTracker, TrackerConfig, choose_colour
+from .tracking.backfill import OfflineTracker
+from .tracking.tracker import BallTracker, TrackerConfig, choose_colour
 from .video_io import VideoReader
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov", ".m4v", ".webm")

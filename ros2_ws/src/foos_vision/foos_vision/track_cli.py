@@ -20,15 +20,15 @@ from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
 from .annotate import Annotator
-from .backfill import OfflineTracker
 from .bag_inputs import read_joint_track
-from .detector import BALL_COLOR_NAMES
+from .camera.field_auto import find_field_corners, is_auto, still_frames
+from .camera.field_corners import FieldCorners, field_reference, option_given, parse_field_corners
+from .camera.figure_mask import FigureGeometry
+from .detection.detector import BALL_COLOR_NAMES
 from .errors import MarkersError, VisionError
-from .field_auto import find_field_corners, is_auto, still_frames
-from .field_corners import FieldCorners, field_reference, option_given, parse_field_corners
-from .figure_mask import FigureGeometry
-from .tracker import BallTracker, TrackerConfig, choose_colour
-from .velocity import central_differences
+from .tracking.backfill import OfflineTracker
+from .tracking.tracker import BallTracker, TrackerConfig, choose_colour
+from .tracking.velocity import central_differences
 from .video_io import VideoReader
 
 LOW_CONFIDENCE = 0.5  # --field-corners auto: below this the run warns

@@ -50,13 +50,13 @@ from foos_core.stamps import stamp_to_seconds
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
+from .camera.field_auto import FRAMES, SPAN_S, FieldNotFound, find_field_corners, is_auto
+from .camera.field_corners import field_reference, option_given, parse_field_corners
+from .camera.figure_mask import FigureGeometry
 from .errors import CameraConfigError, MarkersError, VisionError
-from .field_auto import FRAMES, SPAN_S, FieldNotFound, find_field_corners, is_auto
-from .field_corners import field_reference, option_given, parse_field_corners
-from .figure_mask import FigureGeometry
 from .image_msg import image_to_bgr
 from .joint_sync import JointSync, ReadyFrame
-from .tracker import BallTracker, TrackerConfig
+from .tracking.tracker import BallTracker, TrackerConfig
 
 # Best effort, deep enough for 0.25 s of 400 Hz encoders while a frame is being tracked.
 JOINT_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)

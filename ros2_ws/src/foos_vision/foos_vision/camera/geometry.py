@@ -21,7 +21,7 @@ import numpy as np
 from foos_core.camera_model import Intrinsics
 from foos_core.markers import BALL_CENTRE_HEIGHT, MarkerLayout
 
-from .errors import MarkersError
+from ..errors import MarkersError
 from .field_corners import FieldCornersError
 
 MIN_TAGS = 4

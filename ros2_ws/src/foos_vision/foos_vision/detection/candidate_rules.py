@@ -18,9 +18,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ..camera.field_view import FieldView
+from ..camera.rod_lines import STEEL_AB_TOL
 from .detector import Candidate, ColourModel
-from .field_view import FieldView
-from .rod_lines import STEEL_AB_TOL
 from .streaks import Streak
 
 # Longest a track may live on partly hidden blobs alone: WEAK_TRACK_LIMIT seconds or WEAK_TRACK_FRAMES frames,

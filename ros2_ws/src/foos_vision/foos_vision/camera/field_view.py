@@ -18,8 +18,8 @@ from foos_core.camera_model import Intrinsics
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
+from ..errors import MarkersError
 from .corner_refine import CornerRefinement, refine_field_corners
-from .errors import MarkersError
 from .field_corners import FieldCorners, FieldReference
 from .figure_mask import FigureGeometry, FigureMasker, projection_from_mapping
 from .geometry import (

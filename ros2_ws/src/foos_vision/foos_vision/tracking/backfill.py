@@ -17,8 +17,8 @@ import numpy as np
 
 from foos_core.markers import BALL_CENTRE_HEIGHT
 
-from .candidate_rules import MAX_SPILL, MIN_PARTIAL_FILL, confident, solid, weak_too_long
-from .tracker import BallTracker, Detection
+from ..detection.candidate_rules import MAX_SPILL, MIN_PARTIAL_FILL, confident, solid, weak_too_long
+from .tracker import BallTracker, Detection, search_window
 from .velocity import ConstantVelocityKalman
 
 SEED_DETECTIONS = 3  # detections of a new track that give the backward search its velocity
@@ -110,10 +110,10 @@ class OfflineTracker:
             # first frame without the ball. Before a gap the ball's path is unknown (the serve, a kick), and a
             # figure of its colour there would pass for a half-hidden ball.
             tr.set_figures(joints)
-            candidate, _, _ = tr.search.near(frame, state, 0.0, 0)
+            candidate, _, _ = tr.search.near(frame, search_window(state), 0.0, 0)
             if candidate is None or not solid(candidate):
                 # A shot's streak, as the forward tracker finds one (the filter's previous state is a later frame's).
-                candidate = tr.search.streak(frame, state, kalman.state)[0] or candidate
+                candidate = tr.search.streak(frame, search_window(state), search_window(kalman.state))[0] or candidate
             # Hollow (a figure's outline) or merged with something of its colour (its centre pulled off): not
             # a ball to start a track's history with.
             if candidate is None or candidate.fill < MIN_PARTIAL_FILL or candidate.spill > MAX_SPILL:

@@ -23,7 +23,7 @@ from foos_core.markers import BALL_CENTRE_HEIGHT
 from foos_core.names import JOINT_NAMES, is_figure_geom
 from foos_sim import load_model
 
-from .errors import VisionError
+from ..errors import VisionError
 from .geometry import Lens, PlaneMapping, camera_matrix_for
 
 # Pixels added around each footprint. None: the footprint is filled to sub-pixel precision, and a margin

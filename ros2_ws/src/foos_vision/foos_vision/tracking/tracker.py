@@ -18,9 +18,13 @@ import numpy as np
 from foos_core.camera_model import Intrinsics
 from foos_core.markers import BALL_CENTRE_HEIGHT, MarkerLayout
 
-from .ball_colour import ColourLearner, ColourVote, MotionColourVote
-from .ball_search import NOTHING, BallSearch
-from .candidate_rules import (
+from ..camera.field_corners import FieldReference
+from ..camera.field_view import FieldView, TagFitStats
+from ..camera.figure_mask import FigureGeometry
+from ..camera.geometry import Lens, PlaneMapping
+from ..detection.ball_colour import ColourLearner, ColourVote, MotionColourVote
+from ..detection.ball_search import NOTHING, BallSearch, SearchWindow
+from ..detection.candidate_rules import (
     ACQUIRE_WINDOW,
     MAX_SPILL,
     confident,
@@ -29,12 +33,15 @@ from .candidate_rules import (
     streak_search_due,
     weak_too_long,
 )
-from .detector import BALL_COLOR_NAMES, BallDetector, Candidate, ColourModel, colour_model, learn_colour
-from .field_corners import FieldReference
-from .field_view import FieldView, TagFitStats
-from .figure_mask import FigureGeometry
-from .geometry import Lens, PlaneMapping
-from .velocity import ConstantVelocityKalman
+from ..detection.detector import (
+    BALL_COLOR_NAMES,
+    BallDetector,
+    Candidate,
+    ColourModel,
+    colour_model,
+    learn_colour,
+)
+from .velocity import ConstantVelocityKalman, KalmanState
 
 ACQUIRE_SOLID_RATIO = 0.6  # a white ball's shaded side leaves its colour box: 0.7 of the disc is typical
 CONFIDENT_RUN = 3  # ball-like frames in a row that make a track on partial blobs healthy again
@@ -74,6 +81,11 @@ class TrackerStats(TagFitStats):  # the tag fits' counts (field_view), and the t
     frames_with_mapping: int = 0
     detections: int = 0
     masked_frames: int = 0  # frames searched with the figure mask (joint positions known)
+
+
+def search_window(state: KalmanState) -> SearchWindow:
+    """Where the detection stage's searches look: the filter's position at state.t and its uncertainty."""
+    return SearchWindow(state.t, state.x[:2], state.P[:2, :2])
 
 
 class BallTracker:
@@ -200,9 +212,10 @@ class BallTracker:
 
     def _find(self, bgr: np.ndarray, t: float):
         """The ball near the running track, else a new track's first sighting: (candidate, Lab pixels, roi)."""
-        predicted = self.kalman.predict(t)
-        if predicted is not None:
-            found = self.search.near(bgr, predicted, t - self.kalman.state.t, self._misses)
+        state = self.kalman.predict(t)
+        if state is not None:
+            predicted, last = search_window(state), search_window(self.kalman.state)
+            found = self.search.near(bgr, predicted, t - last.t, self._misses)
             if found[0] is not None and solid(found[0]):
                 self._weak_since = None
                 self._confident_run = 0
@@ -211,16 +224,16 @@ class BallTracker:
             # streak, within a shot's reach (a ball that moved its width or more while the shutter was open is not a
             # round blob; a round one half in its colour box, a white ball's shaded side, is not looked past).
             round_ball = found[0] is not None and confident(found[0]) and found[0].roundness >= HEALTHY_ROUNDNESS
-            blurred = (self.search.streak(bgr, predicted, self.kalman.state)
-                       if not round_ball and streak_search_due(t - self.kalman.state.t, self._misses) else NOTHING)
-            if blurred[0] is not None and (found[0] is None or self.search.streak_from(blurred[0], self.kalman.state)):
+            blurred = (self.search.streak(bgr, predicted, last)
+                       if not round_ball and streak_search_due(t - last.t, self._misses) else NOTHING)
+            if blurred[0] is not None and (found[0] is None or self.search.streak_from(blurred[0], last)):
                 self._weak_since = None
                 self._confident_run = 0
                 return blurred
             if found[0] is not None:
                 return self._follow_partial(bgr, t, found)
             # Nothing of the ball's colour box, nor a streak: the ball's colour where the table changed (motion_ball).
-            moved = self.search.moved_near(bgr, predicted, t - self.kalman.state.t)
+            moved = self.search.moved_near(bgr, predicted, t - last.t)
             if moved[0] is not None:
                 return self._follow_partial(bgr, t, moved)  # never a whole ball: a track on these alone ends
         return self._acquire(bgr, t)

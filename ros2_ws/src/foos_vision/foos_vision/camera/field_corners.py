@@ -15,7 +15,7 @@ import numpy as np
 
 from foos_core.markers import MarkerLayout, load_markers
 
-from .errors import VisionError
+from ..errors import VisionError
 
 CORNER_ORDER = "(-x,-y), (+x,-y), (+x,+y), (-x,+y)"
 # A corner angle this close to 180 degrees is three corners on one line: no quadrilateral a camera makes of a

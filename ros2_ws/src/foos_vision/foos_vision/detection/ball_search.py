@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from dataclasses import dataclass
 from typing import Optional
 
 import cv2
 import numpy as np
 
+from ..camera.field_view import FieldView
 from .candidate_rules import (
     ACQUIRE_WINDOW,
     MAX_GATE,
@@ -39,11 +41,9 @@ from .candidate_rules import (
     streak_ball,
 )
 from .detector import FELT_AB_TOL, BallDetector, Candidate, ColourModel
-from .field_view import FieldView
 from .motion_ball import SCALE as MOTION_SCALE
 from .motion_ball import MotionMap
 from .streaks import Streak, find_streaks
-from .velocity import KalmanState
 
 BAND_SEEDS_NEAR = False
 COAST_SPEED = 1.5  # m/s: the speed change a hit can give a hidden ball, for the gate while a track coasts
@@ -77,6 +77,15 @@ MOTION_MIN_RADIUS = 3.5
 BALL_COLOUR_SAMPLES = 40  # whole balls in plain view whose mean colour is the streak search's ball colour
 
 
+@dataclass(frozen=True)
+class SearchWindow:
+    """Where to look for the ball: the track's position at time t and its uncertainty. Tracking fills it in (from its
+    filter's state); the searches read only these, so detection needs nothing of tracking."""
+    t: float  # s
+    position: np.ndarray  # (x, y) in the table frame, m
+    covariance: np.ndarray  # the position's, 2x2, m^2
+
+
 class BallSearch:
     """The searches of one tracker, with the ball's colour they look for (`detector`, replaced when the colour
     is voted or learned) and what they remember: the table's fixtures and the partial balls of recent frames."""
@@ -100,17 +109,17 @@ class BallSearch:
     def colour(self) -> ColourModel:
         return self.detector.model
 
-    def near(self, bgr: np.ndarray, state: KalmanState, coast: float = 0.0, coast_frames: int = 0):
-        """The ball near the predicted state; coast: seconds since the last detection, coast_frames: frames."""
+    def near(self, bgr: np.ndarray, window: SearchWindow, coast: float = 0.0, coast_frames: int = 0):
+        """The ball near the track's prediction (window); coast: seconds since the last detection, coast_frames: frames."""
         view = self.view
         coast_frames = max(coast_frames, int(self.after_streak))
-        ppm = view.mapping.pixels_per_metre(state.x[:2])
+        ppm = view.mapping.pixels_per_metre(window.position)
         radius = view.table.ball_radius * ppm
-        sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
+        sigma = math.sqrt(max(np.linalg.eigvalsh(window.covariance).max(), 0.0)) * ppm
         # While the ball is hidden it may be hit (a foot, a wall): the longer the track coasts, the further
         # from the prediction a whole ball may reappear.
         gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
-        centre = view.table_to_pixel(state.x[:2])
+        centre = view.table_to_pixel(window.position)
         found, lab, roi = self._window(bgr, centre, gate, gate + 2 * radius + 2, use_band=True,
                                        band_seeds=BAND_SEEDS_NEAR, partial_reach=PARTIAL_NEAR * radius + 2.0 * sigma)
         offset = math.inf if found is None else math.hypot(found.u - centre[0], found.v - centre[1])
@@ -143,17 +152,17 @@ class BallSearch:
             return None, lab, roi
         return found, lab, roi
 
-    def streak(self, bgr: np.ndarray, predicted: KalmanState, last: KalmanState):
+    def streak(self, bgr: np.ndarray, predicted: SearchWindow, last: SearchWindow):
         """A motion-blurred ball within a shot's reach (SHOT_SPEED) of the last detection (`last`, the filter's state
         then), nearest the prediction: a candidate with its `streak`, or nothing. Not a figure over its rod."""
         view = self.view
         since = max(predicted.t - last.t, 0.0)
-        ppm = view.mapping.pixels_per_metre(last.x[:2])
+        ppm = view.mapping.pixels_per_metre(last.position)
         radius = view.table.ball_radius * ppm
-        sigma = math.sqrt(max(np.linalg.eigvalsh(last.P[:2, :2]).max(), 0.0)) * ppm
+        sigma = math.sqrt(max(np.linalg.eigvalsh(last.covariance).max(), 0.0)) * ppm
         reach = (SHOT_SPEED * since) * ppm + 3.0 * sigma + radius
-        start = view.table_to_pixel(last.x[:2])
-        expected = view.table_to_pixel(predicted.x[:2])
+        start = view.table_to_pixel(last.position)
+        expected = view.table_to_pixel(predicted.position)
         roi = _square(view.roi, start, reach + radius)
         if roi is None:
             return NOTHING
@@ -199,29 +208,29 @@ class BallSearch:
         """The rods' axes for the streak search, where they tell figures of the ball's colour (a coloured ball)."""
         return self.view.rod_axes if self.rules.rods_tell_figures(self.colour) else None
 
-    def streak_from(self, c: Candidate, last: KalmanState) -> bool:
+    def streak_from(self, c: Candidate, last: SearchWindow) -> bool:
         """The streak's line passes within STREAK_FROM radii (and 3 sigma) of the last detection: the ball can have
         gone along it from there, struck or rolling on. A streak that does not is no match for a partly hidden ball
         where the track expects it (a figure's lit edge, a hand, passes for a streak now and then)."""
         view = self.view
-        start = view.table_to_pixel(last.x[:2])
-        ppm = view.mapping.pixels_per_metre(last.x[:2])
-        sigma = math.sqrt(max(np.linalg.eigvalsh(last.P[:2, :2]).max(), 0.0)) * ppm
+        start = view.table_to_pixel(last.position)
+        ppm = view.mapping.pixels_per_metre(last.position)
+        sigma = math.sqrt(max(np.linalg.eigvalsh(last.covariance).max(), 0.0)) * ppm
         axis = c.streak.axis  # distance of the last detection from the streak's line (a 2-D cross product)
         off = abs(float(axis[0] * (start[1] - c.v) - axis[1] * (start[0] - c.u)))
         return off <= STREAK_FROM * view.radius_at_pixel(c.u, c.v) + 3.0 * sigma
 
-    def moved_near(self, bgr: np.ndarray, state: KalmanState, coast: float = 0.0):
+    def moved_near(self, bgr: np.ndarray, window: SearchWindow, coast: float = 0.0):
         """The ball's colour where the table changed (motion_ball), within the gate of `near` around the prediction:
         a ball the colour box misses (streaked, dimmed, half under a foot)."""
         view = self.view
-        ppm = view.mapping.pixels_per_metre(state.x[:2])
+        ppm = view.mapping.pixels_per_metre(window.position)
         radius = view.table.ball_radius * ppm
         if radius * MOTION_SCALE < MOTION_MIN_RADIUS:
             return NOTHING
-        sigma = math.sqrt(max(np.linalg.eigvalsh(state.P[:2, :2]).max(), 0.0)) * ppm
+        sigma = math.sqrt(max(np.linalg.eigvalsh(window.covariance).max(), 0.0)) * ppm
         gate = min(4.0 * sigma + COAST_SPEED * coast * ppm, MAX_GATE * ppm) + 1.5 * radius + 2.0
-        centre = view.table_to_pixel(state.x[:2])
+        centre = view.table_to_pixel(window.position)
         for blob in self.motion.blobs(self._ball_colour(), view.radius_at_pixel, centre, gate, self.felt_colour(bgr)):
             # Part of a ball (under a foot, a figure's edge across it) only where one is expected, as for the colour
             # box's partial blobs (PARTIAL_NEAR).

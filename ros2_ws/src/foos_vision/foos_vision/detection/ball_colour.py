@@ -8,10 +8,10 @@ from typing import Optional
 import cv2
 import numpy as np
 
+from ..camera.field_view import FieldView
+from ..camera.rod_lines import on_rod_line
 from .candidate_rules import confident
 from .detector import BALL_COLOR_NAMES, BallDetector, Candidate, ColourModel, colour_model
-from .field_view import FieldView
-from .rod_lines import on_rod_line
 
 AUTO_MIN_SHARE = 0.3  # auto colour: share of the frames looked at in which the winner saw one moving ball
 # Auto colour votes over at most this many recent frames: a live feed with no ball in view for minutes must
