@@ -14,12 +14,12 @@ def describe(effect: dict) -> str:
     where = " of the " + drives[4:] if narrowed else " of every drive"
     if effect["name"] == "rod_latency":
         return (f"{drives} acts {p['delay'] * 1000:.0f} ms after a command arrives (dead time). Modelled by delaying the "
-                "commands TableSimulation gives its velocity servos (foos_sim.drive_limits).")
+                "commands TableSimulation gives its drives (foos_sim.drive_limits).")
     parts = [f"{p['slide']:.3g} m/s{'^2' if 'acceleration' in effect['name'] else ''} sliding" if "slide" in p else "",
              f"{p['rotate']:.3g} rad/s{'^2' if 'acceleration' in effect['name'] else ''} turning" if "rotate" in p else ""]
     what = "speed" if effect["name"] == "rod_speed_limit" else "acceleration"
     return (f"The {what}{where} is limited to {' and '.join(x for x in parts if x)}. Modelled by limiting the servo's "
-            "target (foos_sim.drive_limits).")
+            "target (foos_sim.drive_limits), or on jerk-limited drives their trajectory generators' (foos_sim.drive_profiles).")
 
 
 def markdown(block: dict, effects: list[dict]) -> str:
