@@ -14,7 +14,7 @@ from foos_core.table_params import (
     load_params,
 )
 from foos_sim import scurve
-from foos_sim.drive_limits import Servo, predict_positions
+from foos_sim.drive_limits import DriveLimits, Servo, predict_positions
 from foos_sim.drive_profiles import profile_limits
 from foos_sim.simulation import TableSimulation
 
@@ -174,3 +174,27 @@ def test_the_predictor_follows_the_s_curve_drives():
         free = np.all([np.abs(position[starts + k][:, 0::2]) < travel[0::2] - 0.015 for k in range(steps + 1)], axis=0)
         assert free.sum() > 50
         assert np.percentile(error[:, 0::2][free], 95) < 0.001 and np.percentile(error[:, 1::2], 95) < 0.01, (h, error.max(axis=0))
+
+
+def test_the_predictor_applies_a_command_the_moment_it_falls_due_within_a_step():
+    """A command that falls due between two of the predictor's 2 ms steps acts from then, as the closed-form S-curve
+    says (a rotation's 300 rad/s change applied 1 ms late would be 0.3 rad off): starts at four phases of a step."""
+    accel, jerk, delay = 9425.0, 36650.0, 0.004
+    t0 = np.array([0.0, 0.0007, 0.0013, 0.0019])
+    command_t, commands = np.array([-1.0, 0.0131, 0.0622]), np.array([[0.0], [300.0], [-120.0]])
+    limits = DriveLimits(np.array([delay]), np.array([np.inf]), np.array([np.inf]))
+    servo = Servo(np.array([1e-3]), np.array([2.0]), np.array([10.0]))
+    horizons = (0.05, 0.1)
+    predicted = predict_positions(t0, np.zeros((4, 1)), np.zeros((4, 1)), command_t, commands, limits, servo, np.array([314.159]),
+                                  horizons, profile=(np.array([accel]), np.array([jerk])), acceleration=np.zeros((4, 1)))
+    first = scurve.plan(0.0, 0.0, 300.0, accel, jerk)
+    v1, a1, d1 = scurve.evaluate(first, command_t[2] - command_t[1])
+    second = scurve.plan(v1, a1, -120.0, accel, jerk)
+    for i, start in enumerate(t0):
+        for h, horizon in enumerate(horizons):
+            end = start + horizon - delay
+            if end <= command_t[2]:
+                exact = scurve.evaluate(first, end - command_t[1])[2]
+            else:
+                exact = d1 + scurve.evaluate(second, end - command_t[2])[2]
+            assert predicted[i, h, 0] == pytest.approx(float(exact), abs=1e-6), (start, horizon)

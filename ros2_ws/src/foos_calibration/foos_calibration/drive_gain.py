@@ -7,7 +7,8 @@ each start's mean over the drives the effect acts on, per axis (slides in mm, ro
 axis the effect acts on must gain: the 95 % interval of the drop in median error, stretches resampled whole
 (effect_gain.drop_interval), lies above zero. An axis with fewer than effect_gain.MIN_STARTS starts off the
 travel stops (the goalie's short slide is at a stop most of a game) is reported without an interval and
-not judged; at least one axis must be.
+not judged; at least one axis must be. A speed or acceleration limit's slide and rotation parts act on different
+drives: where one part gains and the other does not, only the part without a gain is refused.
 """
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from typing import Callable
 
 import numpy as np
 
-from foos_core.names import JOINT_NAMES
+from foos_core.names import AXES, JOINT_NAMES
 from foos_sim.drive_limits import DriveLimits, drive_limits_from_effects
 
 from . import effect_gain
@@ -44,7 +45,7 @@ def acts_on(with_effect: list[dict], without: list[dict]) -> np.ndarray:
     return (a.delay != b.delay) | (a.speed != b.speed) | (a.acceleration != b.acceleration)
 
 
-def _axis_gains(without: np.ndarray, with_: np.ndarray, drives: np.ndarray, stretch: np.ndarray, seed: int) -> dict:
+def axis_gains(without: np.ndarray, with_: np.ndarray, drives: np.ndarray, stretch: np.ndarray, seed: int) -> dict:
     """Per axis the effect acts on: the error without and with it, the drop and its interval."""
     slide = np.array([n.endswith("_slide") for n in JOINT_NAMES])
     out = {}
@@ -67,8 +68,8 @@ def _gain_of(errors_of: ErrorsOf, effect: dict, folds: list[list[dict]], final_e
     drives = acts_on([effect], [])
     gain = {"horizon_s": GAIN_HORIZON,
             "what": "median over held-out starts of the joint position error of the drives it acts on",
-            "alone": _axis_gains(nominal_errors, alone_errors, drives, stretch, seed),
-            "in_final_set": _axis_gains(rest_errors, final_errors, drives, stretch, seed)}
+            "alone": axis_gains(nominal_errors, alone_errors, drives, stretch, seed),
+            "in_final_set": axis_gains(rest_errors, final_errors, drives, stretch, seed)}
     # An axis with too few held-out starts off its travel stops (a goalie's short slide) has no interval, and is
     # not judged; every axis that is must gain, and at least one must be judged.
     blocks = [block for part in ("alone", "in_final_set") for block in gain[part].values() if block["ci95_drop"] is not None]
@@ -102,9 +103,50 @@ def judge_gains(errors_of: ErrorsOf, effects: list[dict], fold_effects: list[lis
         if not failing:
             break
         _, worst = min(failing, key=lambda item: item[0])
-        worst["evidence"]["reason"] = (f"no held-out gain: the drop of the joint error {GAIN_HORIZON:g} s ahead on the drives "
-                                       "it acts on has a 95 % interval that does not lie above zero, alone or in the final set")
+        reason = (f"no held-out gain: the drop of the joint error {GAIN_HORIZON:g} s ahead on the drives it acts on has a "
+                  "95 % interval that does not lie above zero, alone or in the final set")
+        lost, earned = _axes_by_gain(worst)
+        if lost and earned:
+            # A limit whose slide and rotation parts are judged apart (each acts on its own drives): the part without a
+            # gain is refused, the part with one is judged again without it.
+            part = {**worst, "params": _only_axes(worst["params"], lost),
+                    "evidence": {**worst["evidence"], "reason": f"{reason} ({' and '.join(sorted(lost))} part)"}}
+            refused.append(part)
+            worst["params"] = _only_axes(worst["params"], set(AXES) - lost)
+            folds = [_without_axes(fold, _key(worst), lost) for fold in folds]
+            continue
+        worst["evidence"]["reason"] = reason
         refused.append(worst)
         kept = [e for e in kept if e is not worst]
         folds = [[e for e in fold if _key(e) != _key(worst)] for fold in folds]
     return kept, folds, refused
+
+
+def _axes_by_gain(effect: dict) -> tuple[set[str], set[str]]:
+    """A speed or acceleration limit's axes (slide, rotate) whose judged intervals do not all lie above zero, and those
+    whose do; a latency's parts are not judged apart (both empty)."""
+    if effect["name"] == "rod_latency":
+        return set(), set()
+    lost, earned = set(), set()
+    for axis in (a for a in AXES if a in effect["params"]):
+        blocks = [block for part in ("alone", "in_final_set") for key, block in effect["evidence"]["gain"][part].items()
+                  if key.startswith(axis) and block["ci95_drop"] is not None]
+        if blocks:
+            (earned if all(effect_gain.excludes_zero(b) for b in blocks) else lost).add(axis)
+    return lost, earned
+
+
+def _only_axes(params: dict, axes: set[str]) -> dict:
+    return {k: v for k, v in params.items() if k not in AXES or k in axes}
+
+
+def _without_axes(fold: list[dict], key: tuple, lost: set[str]) -> list[dict]:
+    """A fold's effects with the `lost` axes taken from the effect of `key` (dropped where none is left)."""
+    out = []
+    for effect in fold:
+        if _key(effect) == key:
+            effect = {**effect, "params": _only_axes(effect["params"], set(AXES) - lost)}
+            if not any(axis in effect["params"] for axis in AXES):
+                continue
+        out.append(effect)
+    return out

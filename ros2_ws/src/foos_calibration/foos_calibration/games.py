@@ -7,7 +7,8 @@ served again when it stops, leaves the field or a goal is scored.
 
 Hidden drive effects (`rod_latency`, `rod_speed_limit`, `rod_acceleration_limit`) are applied by this
 generator's OWN command pipeline (HiddenDrives: a delay queue and limiters on what it sends, step by step,
-to an ideal TableSimulation), not by foos_sim.drive_limits, the model calibration fits. Hidden table
+to an ideal TableSimulation), not by foos_sim.drive_limits, the model calibration fits; on the jerk-limited
+drives (params/robot_table.yaml) an acceleration limit is the drives' own generators' (_with_generator_acceleration). Hidden table
 effects (TABLE_EFFECTS) are forces on the ball from the same loop (hidden_forces, as the free-roll
 generator's). A hidden `camera_latency` stamps every detection `delay` after its capture (the encoders keep
 the true clock). A hidden `figure_restitution` (`coefficient`) is the generating table's own `figures:
@@ -34,6 +35,7 @@ from foos_bag import FLOAT64_MULTI_ARRAY, BagWriter, typestore, write_ball_detec
 from foos_core.names import AXES, COMMAND_SIZE, JOINT_NAMES, RODS, TEAMS, command_topic
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
+from foos_sim.drive_profiles import drive_kind
 from foos_sim.effects import EffectError
 from foos_sim.simulation import TableSimulation
 
@@ -235,8 +237,12 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
     params = params if params is not None else load_params()
     params = {**params, "effects": [e for e in params.get("effects", []) or [] if e.get("name") not in DRIVE_EFFECTS]}
     params = _with_figure_restitution(params, effects)
+    in_generators = drive_kind(params) == "jerk_limited"
+    if in_generators:
+        params = _with_generator_acceleration(params, effects)
     sim = TableSimulation(params=params)
-    hidden = HiddenDrives(effects, sim.command_limits)
+    hidden = HiddenDrives([e for e in effects if not (in_generators and e.get("name") == "rod_acceleration_limit")],
+                          sim.command_limits)
     pushed = _BallPush(sim, params, table) if effects and any(e.get("name") in TABLE_EFFECTS for e in effects) else None
     players = [Player(team, params, sim.command_limits, rng, options.excitation) for team in TEAMS]
     if style is not None:
@@ -318,6 +324,20 @@ def _camera_delay(effects: Sequence[dict]) -> float:
     """s: the hidden camera latency (camera_latency's `delay`), 0 without one."""
     delay = _hidden_value(effects, CAMERA_EFFECTS[0], "delay", 0, MAX_CAMERA_DELAY, " s")
     return delay if delay is not None else 0.0
+
+
+def _with_generator_acceleration(params: dict, effects: Sequence[dict]) -> dict:
+    """`params` with the hidden `rod_acceleration_limit` effects as the jerk-limited drives' own (a copy).
+
+    On these drives the effect is the drive's trajectory generator planning within a lower acceleration (a robot
+    drive's configured limit): a rate limiter ahead of the generator is not that, as the generator's S-curve, jerk
+    limited, trails a ramp that reverses at once (11 ms at 800 rad/s^2; the rods then moved up to 25 rad/s off the
+    effect's meaning). So it is hidden INSIDE the table being fitted, as a figure restitution is: TableSimulation's
+    generators (foos_sim.drive_profiles) plan within it; the dead time and the speed limit stay in HiddenDrives."""
+    accelerations = [e for e in effects if e.get("name") == "rod_acceleration_limit"]
+    if not accelerations:
+        return params
+    return {**params, "effects": list(params.get("effects") or []) + [dict(e) for e in accelerations]}
 
 
 def _with_figure_restitution(params: dict, effects: Sequence[dict]) -> dict:

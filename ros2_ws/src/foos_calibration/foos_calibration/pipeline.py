@@ -14,7 +14,7 @@ import yaml
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
-from . import effect_gain, figures, surface_correction, surrogate, table_gain, wall_segments
+from . import effect_gain, figures, rod_report, surface_correction, surrogate, table_gain, wall_segments
 from . import rods as rod_drives
 from .bounces import fit_restitution, fold_restitution
 from .evaluate import HORIZONS, choose_starts, errors_of, estimate_states, predict, summary
@@ -107,7 +107,7 @@ def _rods_only(rods, reason: str, out_dir: Path, options: Options, bag: str, sta
                            f"skipped: {reason}).\n" + yaml.safe_dump(
                                {"base": base_ref, "effects": base_effects + _plain_effects(rods.effects)}, sort_keys=False))
     load_params(params_file)
-    effects = [{**e, "description": rod_drives.describe(e)} for e in rods.effects]
+    effects = [{**e, "description": rod_report.describe(e)} for e in rods.effects]
     report = {"effects": effects, "baseline": {"median_error_mm_1s": None}, "calibrated": {"median_error_mm_1s": None},
               "params_file": str(params_file.resolve()), "ball_skipped": reason, "rods": rods.block,
               "rejected": _rejected(None, None, rods),
@@ -116,7 +116,7 @@ def _rods_only(rods, reason: str, out_dir: Path, options: Options, bag: str, sta
               "cpu_s": round(time.process_time() - cpu_started, 1)}
     (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_plain))
     (out_dir / "report.md").write_text(f"# Calibration report\n\nThe ball was not calibrated: {reason}.\n"
-                                       + rod_drives.markdown(rods.block, rods.effects))
+                                       + rod_report.markdown(rods.block, rods.effects))
     return report
 
 
@@ -231,7 +231,7 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
     if game is not None:
         report_effects += game.effects()
     if rods is not None:
-        report_effects += [{**e, "description": rod_drives.describe(e)} for e in rods.effects]
+        report_effects += [{**e, "description": rod_report.describe(e)} for e in rods.effects]
     report = {
         "effects": report_effects,
         "baseline": baseline,
@@ -287,7 +287,7 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
     # load too (one trial 39 -> 67 s).
     report["cpu_s"] = round(time.process_time() - cpu_started, 1)
     (out_dir / "report.json").write_text(json.dumps(report, indent=2, default=_plain))
-    rods_section = rod_drives.markdown(rods.block, rods.effects) if rods is not None else ""
+    rods_section = rod_report.markdown(rods.block, rods.effects) if rods is not None else ""
     (out_dir / "report.md").write_text(markdown(report, nominal_rolling, nominal_e) + rods_section)
     return report
 

@@ -42,7 +42,7 @@ from foos_sim import scurve
 from foos_sim.drive_limits import DriveLimits, Servo, drive_limits_from_effects, predict_positions
 from foos_sim.drive_profiles import ProfileLimits
 
-from . import drive_gain, effect_gain
+from . import drive_gain
 
 COMPONENTS = ("latency", "speed", "acceleration")
 EFFECT_OF = {"latency": "rod_latency", "speed": "rod_speed_limit", "acceleration": "rod_acceleration_limit"}
@@ -52,6 +52,9 @@ MIN_FOLD_SHARE = 0.05  # and neither fold may get worse by more than this share 
 MATERIAL_DELAY = 0.008  # s: less is within the servo model's own approximations (a 2 ms physics step)
 MATERIAL_SPEED = 0.9  # a speed limit below this share of the highest speed the commands asked for
 MATERIAL_ACCEL = 0.35  # an acceleration limit below this share of the servo's own (force / inertia)
+# On the jerk-limited drives: below this share of the highest acceleration their nominal S-curves reach on the
+# commands sent (a slide's peaks at 36-53 m/s^2 of its 104: the jerk limit, not the acceleration limit, binds).
+MATERIAL_PROFILE_ACCEL = 0.9
 DIFFERENT_DELAY = (0.008, 0.25)  # s and share: a drive's latency differs from the rest by more than both
 DIFFERENT_RATIO = 1.25  # a drive's speed or acceleration limit differs from the rest by more than this factor
 STOP_MARGIN = 0.01  # m: slide samples this close to a travel stop are left out (its soft limit holds the rod)
@@ -222,6 +225,7 @@ class _Team:
     lag: np.ndarray
     asked: np.ndarray  # (8,) the highest |command| sent
     jerk: np.ndarray | None = None  # (8,) the jerk-limited drives'; None: servos on the command
+    material_accel: np.ndarray | None = None  # (8,) an acceleration limit at most this is material (_material)
 
 
 def _values(params: dict, team: _Team, lanes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -303,7 +307,7 @@ def _material(component: str, share: float, team: _Team, drive: int) -> bool:
         return share >= MATERIAL_DELAY
     if component == "speed":
         return share * team.limit[drive] <= MATERIAL_SPEED * team.asked[drive]
-    return share <= MATERIAL_ACCEL
+    return share * team.servo_accel[drive] <= team.material_accel[drive]
 
 
 def _variance_unit(noise2: float, rss: np.ndarray, weight: float, components: int) -> float:
@@ -482,7 +486,14 @@ def _teams(data: DriveData, model: DriveModel) -> list[_Team]:
             weight=(~at_stop[every, cols]).T.astype(float), folds=folds[every], limit=model.command_limits[cols],
             servo_accel=model.servo_accel[cols], lag=model.lag[cols], asked=np.abs(commands).max(axis=0),
             jerk=None if model.jerk is None else model.jerk[cols]))
+        team = teams[-1]
+        team.material_accel = MATERIAL_ACCEL * team.servo_accel
+        if team.jerk is not None:
+            _, reached = shaped_velocity(team.event_t, team.commands, team.t, np.zeros(COMMAND_SIZE), team.limit, team.servo_accel,
+                                         np.zeros(COMMAND_SIZE), team.jerk, acceleration=True)
+            team.material_accel = MATERIAL_PROFILE_ACCEL * np.abs(reached).max(axis=1)
     return teams
+
 
 
 def model_velocity(data: DriveData, model: DriveModel, limits: DriveLimits, times: np.ndarray,
@@ -524,7 +535,10 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
         if rows.size == 0:
             continue
         limits = fold_limits[1 - k]
-        v0, a0 = model_velocity(data, model, limits, t0[rows], acceleration=True)
+        # A jerk-limited drive's position is its setpoint's integral (the fast physics moves each step at the setpoint
+        # of its middle): the prediction starts from the setpoint at t0, not from the joint velocity half a step behind.
+        ahead = model.timestep / 2 if model.profiles is not None else 0.0
+        v0, a0 = model_velocity(data, model, limits, t0[rows] + ahead, acceleration=True)
         p0 = np.stack([np.interp(t0[rows], data.t, data.position[:, j]) for j in range(len(JOINT_NAMES))], axis=1)
         for i, team in enumerate(TEAMS):
             cols = np.arange(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
@@ -655,44 +669,3 @@ def _per_drive_named(per_drive: list[dict], model: DriveModel, final: DriveLimit
         if own:
             out[JOINT_NAMES[j]] = own
     return out
-
-
-def describe(effect: dict) -> str:
-    """One plain sentence for the report."""
-    p = effect["params"]
-    narrowed = any(k in p for k in ("team", "rod", "axis"))
-    drives = "The " + " ".join(str(p[k]) for k in ("team", "rod", "axis") if k in p) + " drive" if narrowed else "Every drive"
-    where = " of the " + drives[4:] if narrowed else " of every drive"
-    if effect["name"] == "rod_latency":
-        return (f"{drives} acts {p['delay'] * 1000:.0f} ms after a command arrives (dead time). Modelled by delaying the "
-                "commands TableSimulation gives its velocity servos (foos_sim.drive_limits).")
-    parts = [f"{p['slide']:.3g} m/s{'^2' if 'acceleration' in effect['name'] else ''} sliding" if "slide" in p else "",
-             f"{p['rotate']:.3g} rad/s{'^2' if 'acceleration' in effect['name'] else ''} turning" if "rotate" in p else ""]
-    what = "speed" if effect["name"] == "rod_speed_limit" else "acceleration"
-    return (f"The {what}{where} is limited to {' and '.join(x for x in parts if x)}. Modelled by limiting the servo's "
-            "target (foos_sim.drive_limits).")
-
-
-def markdown(block: dict, effects: list[dict]) -> str:
-    """The report's rods section."""
-    out = ["", "## The rod drives", ""]
-    named = [e for e in effects if e["name"] in EFFECT_OF.values()]
-    out += [f"- **{e['name']}** {e['params']}: {describe(e)} (held-out evidence "
-            f"{e['evidence']['held_out_error_drop_noise_variances']} noise variances over {e['evidence']['drives_named']} drive(s); "
-            f"held-out gain {effect_gain.describe(e['evidence'].get('gain'))})"
-            for e in named] or ["Nothing: the nominal drives explain the joint states."]
-    out += ["", "Joint position error on held-out stretches (median, 95 % bootstrap interval), nominal -> calibrated:", "",
-            "| axis | horizon | nominal | calibrated |", "|---|---|---|---|"]
-    b, c = block["baseline"], block["calibrated"]
-    for axis, unit in (("slide", "mm"), ("rotate", "deg")):
-        for horizon in HORIZONS:
-            key = f"{axis}_median_error_{unit}_{horizon:g}s".replace(".", "_")
-            ci = key.replace("median_error", "ci95")
-            out.append(f"| {axis} ({unit}) | {horizon:g} s | {b.get(key)} {b.get(ci, '')} | {c.get(key)} {c.get(ci, '')} |")
-    # The drives an effect names one by one: their own errors, which the medians over all 16 drives hide.
-    own = {name for e in named if e["params"].get("team") for name in e["evidence"].get("per_drive", {})}
-    rows = [(name, gain) for name, gain in (block.get("per_drive_error_0_25s") or {}).items() if name in own]
-    if rows:
-        out += ["", "The drives with an effect of their own, error 0.25 s ahead (median over starts), nominal -> calibrated:", ""]
-        out += [f"- {name}: {g['baseline']} -> {g['calibrated']} {g['unit']}" for name, g in rows]
-    return "\n".join(out) + "\n"

@@ -268,7 +268,8 @@ def predict_positions(
     On the jerk-limited drives `profile` holds their generators' (acceleration limit, jerk limit) (D,) and
     `acceleration` (n, D) the setpoints' acceleration at t0: each drive then follows its S-curve
     (foos_sim.scurve) towards the shaped command, at the lower of its own and the effect's acceleration limit,
-    exactly within each step, and the rod moves with it (foos_sim.drive_profiles).
+    exactly within each step (a command that falls due within a step splits it there), and the rod moves with it
+    (foos_sim.drive_profiles).
     """
     t0 = np.asarray(t0, dtype=float)
     p = np.array(position, dtype=float)
@@ -290,19 +291,28 @@ def predict_positions(
     if profile is not None:
         profile_accel = np.minimum(limits.acceleration, profile[0])
         a = np.zeros_like(v) if acceleration is None else np.array(acceleration, dtype=float)
+    def acting(time):
+        """The command index and clipped goal each drive acts on at `time` (n,): the last received `delay` before."""
+        seen = time[:, None] - limits.delay[None, :] + _TIME_EPS
+        index = np.searchsorted(command_t, seen.ravel(), side="right").reshape(seen.shape) - 1
+        goal = np.where(index >= 0, commands[np.maximum(index, 0), columns[None, :]], 0.0)
+        return index, np.clip(goal, -speed, speed)
+
     for k in range(max(steps) + 1):
         if k in steps:
             out[:, steps.index(k)] = p
         if k == max(steps):
             break
-        # The command each drive acts on during this step: the last received `delay` before the step.
-        seen = (t0 + k * dt)[:, None] - limits.delay[None, :] + _TIME_EPS
-        index = np.searchsorted(command_t, seen.ravel(), side="right").reshape(seen.shape) - 1
-        goal = np.where(index >= 0, commands[np.maximum(index, 0), columns[None, :]], 0.0)
-        goal = np.clip(goal, -speed, speed)
+        index, goal = acting(t0 + k * dt)
         if profile is not None:
-            v, a, moved = scurve.advance(v, a, goal, profile_accel, profile[1], dt)
-            p = p + moved
+            # A generator re-plans the moment a command falls due, not at this step's start: a velocity change of 300
+            # rad/s applied 1 ms late is 0.3 rad off. Where one falls due within the step, the step is split there.
+            later, next_goal = acting(t0 + (k + 1) * dt - 2 * _TIME_EPS)
+            due = np.where(later != index, command_t[np.maximum(later, 0)] + limits.delay[None, :] - (t0 + k * dt)[:, None], dt)
+            due = np.clip(due, 0.0, dt)
+            v, a, moved = scurve.advance(v, a, goal, profile_accel, profile[1], due)
+            v, a, rest = scurve.advance(v, a, next_goal, profile_accel, profile[1], dt - due)
+            p = p + moved + rest
         else:
             y = y + np.clip(goal - y, -accel_step, accel_step)
             error = y - v
