@@ -44,7 +44,7 @@ def identified(effects, seed, table):
 # On the jerk-limited drives the acceleration case hides 25 m/s^2 on the slides, not 40: their S-curves peak at 36-53
 # m/s^2 on these games, so 40 hardly binds (the true model's held-out slide gain 0.25 s ahead, 0.88 -> 0.19 mm, has a
 # 95 % interval of [0.07, 3.2] mm, and the 41.4 m/s^2 fitted was refused for no gain:
-# docs/measurements/calibration-2026-11-28-scurve-drives.md).
+# docs/measurements/calibration-2026-11-27-scurve-drives.md).
 ON_ROBOT = {"rod_acceleration_limit": {"slide": 25.0}}
 
 
