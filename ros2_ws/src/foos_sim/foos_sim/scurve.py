@@ -98,23 +98,9 @@ def evaluate(profile: Profile, elapsed) -> tuple[np.ndarray, np.ndarray, np.ndar
     return v, a, d
 
 
-def state(profile: Profile, elapsed: float) -> tuple[np.ndarray, np.ndarray]:
-    """evaluate()'s (velocity, acceleration) at one time, in fewer numpy passes (a re-plan's start)."""
-    t1, t2 = profile.t1, profile.t2
-    e1 = np.minimum(np.maximum(elapsed, 0.0), t1)
-    rest = elapsed - t1
-    e2 = np.minimum(np.maximum(rest, 0.0), t2)
-    rest = rest - t2
-    e3 = np.minimum(np.maximum(rest, 0.0), profile.t3)
-    a1 = profile.a0 + profile.jerk1 * t1
-    v = profile.v0 + (profile.a0 + 0.5 * profile.jerk1 * e1) * e1 + a1 * (e2 + e3) + 0.5 * profile.jerk3 * e3 * e3
-    a = np.where(e1 < t1, profile.a0 + profile.jerk1 * e1, a1 + profile.jerk3 * e3)
-    done = rest >= profile.t3
-    return np.where(done, profile.target, v), np.where(done, 0.0, a)
+def _in_phases(profile: Profile, elapsed):
+    """The velocity at `elapsed` (before the profile ends) and what the acceleration needs: (v, e1, e3, a1, done).
 
-
-def velocity(profile: Profile, elapsed: np.ndarray) -> np.ndarray:
-    """evaluate()'s velocity alone, in fewer numpy passes (the fast physics' servo targets, every few steps):
     v0 + a0 e1 + J1 e1^2 / 2 + a1 (e2 + e3) + J3 e3^2 / 2, each e the time spent in its phase so far."""
     t1, t2 = profile.t1, profile.t2
     e1 = np.minimum(np.maximum(elapsed, 0.0), t1)
@@ -124,7 +110,20 @@ def velocity(profile: Profile, elapsed: np.ndarray) -> np.ndarray:
     e3 = np.minimum(np.maximum(rest, 0.0), profile.t3)
     a1 = profile.a0 + profile.jerk1 * t1  # the acceleration through phases 2 and 3's start
     v = profile.v0 + (profile.a0 + 0.5 * profile.jerk1 * e1) * e1 + a1 * (e2 + e3) + 0.5 * profile.jerk3 * e3 * e3
-    return np.where(rest >= profile.t3, profile.target, v)
+    return v, e1, e3, a1, rest >= profile.t3
+
+
+def state(profile: Profile, elapsed: float) -> tuple[np.ndarray, np.ndarray]:
+    """evaluate()'s (velocity, acceleration) at one time, in fewer numpy passes (a re-plan's start)."""
+    v, e1, e3, a1, done = _in_phases(profile, elapsed)
+    a = np.where(e1 < profile.t1, profile.a0 + profile.jerk1 * e1, a1 + profile.jerk3 * e3)
+    return np.where(done, profile.target, v), np.where(done, 0.0, a)
+
+
+def velocity(profile: Profile, elapsed: np.ndarray) -> np.ndarray:
+    """evaluate()'s velocity alone, in fewer numpy passes (the fast physics' servo targets, every few steps)."""
+    v, _, _, _, done = _in_phases(profile, elapsed)
+    return np.where(done, profile.target, v)
 
 
 def advance(v0, a0, target, accel, jerk, elapsed) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
