@@ -136,15 +136,23 @@ def fit_restitution(measured: Measured, fit_: Fit, params: dict, nominal: float,
     return RestitutionResult(fitted if named else None, fitted, evidence, windows, rss)
 
 
-def _gain(windows: list[BounceWindow], rss: np.ndarray, folds: np.ndarray, nominal: float) -> dict:
-    """The gain rule (effect_gain): each bounce window's replay error (RMS, mm), held out (at the restitution fitted on
-    the other fold's bounces), without and with the fitted restitution; each bounce its own stretch."""
-    fold_e = [spline_minimum(rss[folds == k].sum(axis=0)) if np.any(folds == k) else nominal for k in (0, 1)]
+def held_out_replay_gain(windows: list[BounceWindow], rss: np.ndarray, folds: np.ndarray, baseline: float,
+                         seed: int = 0) -> tuple[list[float], dict]:
+    """The restitution fitted on each fold's bounces, and the gain rule's block (effect_gain) over the windows: each
+    window's replay RMS error (mm) at `baseline` against that at the other fold's coefficient; each bounce its own
+    stretch. Shared by the table's restitution and each stretch of wall (wall_segments)."""
+    fold_e = [spline_minimum(rss[folds == k].sum(axis=0)) if np.any(folds == k) else baseline for k in (0, 1)]
     points = np.array([2 * max(len(w.t), 1) for w in windows])
-    without = np.array([np.sqrt(max(spline_at(row, nominal), 0.0) / n) for row, n in zip(rss, points)])
+    without = np.array([np.sqrt(max(spline_at(row, baseline), 0.0) / n) for row, n in zip(rss, points)])
     with_ = np.array([np.sqrt(max(spline_at(row, fold_e[1 - k]), 0.0) / n) for row, k, n in zip(rss, folds, points)])
+    return fold_e, effect_gain.drop_interval(without, with_, np.arange(len(windows)), seed=seed, scale=1000.0)
+
+
+def _gain(windows: list[BounceWindow], rss: np.ndarray, folds: np.ndarray, nominal: float) -> dict:
+    """The table's restitution under the gain rule, held out (at the coefficient fitted on the other fold's bounces)."""
+    _, gain = held_out_replay_gain(windows, rss, folds, nominal)
     return {"what": "median over wall bounces of the replay's RMS ball error (mm), each at the other fold's coefficient",
-            **effect_gain.drop_interval(without, with_, np.arange(len(windows)), scale=1000.0)}
+            **gain}
 
 
 def fold_restitution(result: RestitutionResult, fold: int, nominal: float) -> float:

@@ -19,8 +19,8 @@ import numpy as np
 
 from foos_core.table_geometry import TableGeometry
 
-from .bounces import MIN_CHANGE, RestitutionResult, spline_at, spline_minimum
-from .effect_gain import drop_interval, excludes_zero
+from .bounces import MIN_CHANGE, RestitutionResult, held_out_replay_gain, spline_minimum
+from .effect_gain import excludes_zero
 
 MIN_BOUNCES = 6  # bounces a stretch needs, three a fold
 
@@ -61,7 +61,6 @@ def check_stretches(result: RestitutionResult, table_e: float, geometry: TableGe
     """Each stretch with enough bounces: its fitted coefficient, its held-out gain, and whether it is reported."""
     if not result.windows:
         return []
-    points = np.array([2 * max(len(w.t), 1) for w in result.windows])
     along = np.array([_hit_point(w, geometry) for w in result.windows])
     out = []
     for stretch in stretches(geometry):
@@ -69,12 +68,8 @@ def check_stretches(result: RestitutionResult, table_e: float, geometry: TableGe
                                for w, a in zip(result.windows, along)])
         if len(rows) < MIN_BOUNCES:
             continue
-        folds = np.arange(len(rows)) % 2
         rss = result.rss[rows]
-        fold_e = [spline_minimum(rss[folds == k].sum(axis=0)) for k in (0, 1)]
-        without = np.array([np.sqrt(max(spline_at(r, table_e), 0.0) / n) for r, n in zip(rss, points[rows])])
-        with_ = np.array([np.sqrt(max(spline_at(r, fold_e[1 - k]), 0.0) / n) for r, k, n in zip(rss, folds, points[rows])])
-        gain = drop_interval(without, with_, np.arange(len(rows)), seed=seed, scale=1000.0)
+        fold_e, gain = held_out_replay_gain([result.windows[i] for i in rows], rss, np.arange(len(rows)) % 2, table_e, seed)
         fitted = spline_minimum(rss.sum(axis=0))
         same_side = all(abs(e - table_e) >= MIN_CHANGE and np.sign(e - table_e) == np.sign(fitted - table_e) for e in fold_e)
         out.append({"stretch": stretch.describe(), "wall": stretch.wall, "from_m": round(stretch.start, 3),
