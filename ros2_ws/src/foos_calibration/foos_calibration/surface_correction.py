@@ -153,7 +153,6 @@ class SurfaceCorrection:
     heights: HeightMap  # fitted on all the segments
     gain: dict  # drop_interval's block (mm), held out by folds
     reported: bool
-    error_mm: dict  # the held-out RMS error without and with the correction
 
     def summary(self) -> dict:
         """What report.json keeps of every correction tried, reported or not."""
@@ -170,7 +169,7 @@ class SurfaceCorrection:
         h = self.heights.height(np.stack([gx.ravel(), gy.ravel()], axis=1)).reshape(gx.shape)
         low, high = np.unravel_index(np.argmin(h), h.shape), np.unravel_index(np.argmax(h), h.shape)
         span = float(h.max() - h.min())
-        without = self.error_mm["without"]
+        without = self.gain["without"]
         return {
             "where": (f"the surface: a smooth height map outside the vocabulary, {span * 1000:.1f} mm from its lowest point "
                       f"(x {xs[low[0]]:+.2f}, y {ys[low[1]]:+.2f} m) to its highest (x {xs[high[0]]:+.2f}, y {ys[high[1]]:+.2f} m)"),
@@ -181,7 +180,7 @@ class SurfaceCorrection:
             "lowest_xy": [round(float(xs[low[0]]), 3), round(float(ys[low[1]]), 3)],
             "highest_xy": [round(float(xs[high[0]]), 3), round(float(ys[high[1]]), 3)],
             "gain": {"held_out_error_mm": self.gain},
-            "corrected_error_mm": self.error_mm["with"],
+            "corrected_error_mm": self.gain["with"],
             "map": {"x": [round(float(v), 3) for v in xs[::5]], "y": [round(float(v), 3) for v in ys[::5]],
                     "height_mm": np.round(h[::5, ::5] * 1000, 2).tolist()},
             **({"figure": figure} if figure else {}),
@@ -213,7 +212,7 @@ def fit_surface_correction(segments: Sequence[Segment], fit: Fit, noise: float, 
     heights = HeightMap(template.centres, template.width, fit_heights(pieces, template, noise))
     material = gain.get("drop") is not None and gain["drop"] >= MIN_DROP_NOISE * noise * 1000
     reported = excludes_zero(gain) and material
-    return SurfaceCorrection(heights, gain, reported, {"without": gain.get("without"), "with": gain.get("with")})
+    return SurfaceCorrection(heights, gain, reported)
 
 
 def draw(correction: SurfaceCorrection, geometry: TableGeometry, path: Path) -> None:
