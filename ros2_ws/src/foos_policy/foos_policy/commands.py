@@ -14,8 +14,8 @@ T = TypeVar("T")
 
 
 def add_task_arguments(parser: argparse.ArgumentParser) -> None:
-    """--reset, --opponent, --opponent-policy, --opponent-delay and the views: the task a policy is trained or
-    evaluated on."""
+    """--reset, --opponent, --opponent-policy, --opponent-delay, --params-file and the views: the task a policy is
+    trained or evaluated on."""
     parser.add_argument("--reset", choices=RESETS, default="paper",
                         help="paper: the paper's centre serve; hardened: a nearly still ball in front of a home rod; resting: the "
                              "same ball at rest (a curriculum's first stage) (default paper)")
@@ -27,6 +27,10 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--opponent-delay", type=float, default=0.0, metavar="SECONDS",
                         help="the away team acts on what it saw this long ago, rounded to 20 ms control steps: a real "
                              "table's camera and drive dead time (default 0: the scripted opponent reacts at once)")
+    parser.add_argument("--params-file", default=None,
+                        help="the table to play on (default the nominal table on the fast physics): e.g. foos_core's "
+                             "params/robot_table.yaml (a robot table's jerk-limited drives), params/reference_table.yaml "
+                             "(the 20 kHz reference) or a calibrate run's calibrated_table.yaml, to measure how a policy transfers")
     parser.add_argument("--view", choices=("camera", "instant"), default="camera",
                         help="how the home policy sees the ball: camera: as a real table's camera loop delivers it, 40 ms "
                              "late with 1.5 mm of noise (foos_policy.camera_view); instant: the true state at once "

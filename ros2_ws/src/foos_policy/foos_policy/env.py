@@ -9,6 +9,9 @@ unless the parameter file names the reference): one control step is one TableSim
 control_rate). The episode ends at the control step in which the simulation reports a goal, and every
 rod-ball touch is counted: the simulation counts the touches of each team's figures as they begin.
 
+The home action is the paper's velocity action, or with `action="position"` rod position targets in
+[-1, 1]^8 that foos_policy.actions turns into it at each step.
+
 Both teams see the ball as a real table's camera loop delivers it (foos_policy.camera_view: 40 ms late,
 1.5 mm and 0.05 m/s of noise), and their own rods' joints at once; `view` / `opponent_view` "instant" give
 a team the true state at once instead. Goals, rewards and the episode's end are judged on the true state.
@@ -24,6 +27,7 @@ import numpy as np
 from foos_core.names import COMMAND_SIZE
 from foos_sim.simulation import TableSimulation
 
+from .actions import ACTION_MODES, POSITION_ACTION_LIMIT, PositionTargets
 from .camera_view import CAMERA_LATENCY, POSITION_NOISE, VELOCITY_NOISE, VIEWS, CameraView
 from .observation import ACTION_LIMIT, OBS_SIZE, action_to_command, observe
 from .tasks import make_opponent, make_reset, make_reward
@@ -45,6 +49,7 @@ class EnvConfig:
     opponent_view: str = "camera"       # camera | instant: the same for the away team
     camera_latency: float = CAMERA_LATENCY    # s
     camera_noise: float = POSITION_NOISE      # m per axis; the velocity's noise is VELOCITY_NOISE while this is > 0
+    action: str = "velocity"            # velocity | position: what the home action asks of the rods (foos_policy.actions)
 
 
 @dataclass
@@ -107,8 +112,13 @@ class FoosballEnv(gym.Env):
         self.camera = CameraView(cfg.camera_latency, cfg.camera_noise, VELOCITY_NOISE if cfg.camera_noise > 0 else 0.0)
         self._views = {"home": cfg.view, "away": cfg.opponent_view}
 
+        if cfg.action not in ACTION_MODES:
+            raise ValueError(f"action must be one of {', '.join(ACTION_MODES)}, got '{cfg.action}'")
+        self.targets = PositionTargets(self.sim.params, self.sim.command_limits) if cfg.action == "position" else None
+        limit = POSITION_ACTION_LIMIT if self.targets else ACTION_LIMIT
+
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
-        self.action_space = gym.spaces.Box(-ACTION_LIMIT, ACTION_LIMIT, (COMMAND_SIZE,), np.float32)
+        self.action_space = gym.spaces.Box(-limit, limit, (COMMAND_SIZE,), np.float32)
 
         self.stats = EpisodeStats()
         self._stagnant_count = 0
@@ -129,6 +139,10 @@ class FoosballEnv(gym.Env):
         return self._observe("home"), {}
 
     def step(self, action):
+        if self.targets is not None:  # position targets -> this step's velocity action, from the own rods' encoders
+            sim = self.sim
+            own = observe("home", sim.ball_position(), sim.ball_velocity(), sim.joint_positions(), sim.joint_velocities())
+            action = self.targets.velocity_action(own, action)
         a = np.clip(np.asarray(action, dtype=np.float64).ravel(), -ACTION_LIMIT, ACTION_LIMIT)
         self.sim.set_command("home", action_to_command("home", a, self.sim.command_limits))
         away = self.opponent.act(self._observe("away"))

@@ -36,10 +36,6 @@ def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="evaluate", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--policy", help="zero | random | scripted | shipped NAME | PATH.zip")
     add_task_arguments(p)
-    p.add_argument("--params-file", default=None,
-                   help="the table to play on (default the nominal table on the fast physics); e.g. foos_core's "
-                        "params/reference_table.yaml (the 20 kHz reference) or a calibrate run's calibrated_table.yaml, "
-                        "to measure how a policy transfers")
     p.add_argument("--episodes", type=int, default=100, help="number of episodes (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the episode set (default 0)")
     p.add_argument("--out", default=None, help="JSON file to write (default: print only)")

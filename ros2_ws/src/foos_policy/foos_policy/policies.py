@@ -13,6 +13,7 @@ from foos_core.names import COMMAND_SIZE
 from foos_core.table_params import load_params
 from foos_sim import command_limits as params_command_limits
 
+from .actions import PositionTargets, action_mode_of
 from .observation import ACTION_LIMIT
 from .scripted import ScriptedPolicy
 
@@ -100,7 +101,7 @@ def load_model(spec: str | Path):
 
 
 class Policy:
-    """An own-view controller: predict(obs) -> action in [-20, 20]^8."""
+    """An own-view controller: predict(obs) -> the paper's velocity action in [-20, 20]^8."""
 
     name = "policy"
 
@@ -136,13 +137,28 @@ class ScriptedBaseline(Policy):
 
 
 class ModelPolicy(Policy):
-    def __init__(self, spec: str | Path):
+    """A trained SAC/TQC model. One trained on position targets (its action box is [-1, 1]) is followed by the
+    controller that turns them into velocity actions on the table `params` describes."""
+
+    def __init__(self, spec: str | Path, params: Optional[dict] = None, command_limits=None):
         self.path = resolve_policy(str(spec))
         self.name = self.path.stem
         self.model = load_model(self.path)
+        try:
+            self.action_mode = action_mode_of(self.model.action_space.high)
+        except ValueError as exc:
+            raise PolicyError(f"{self.path}: {exc}") from None
+        self.targets = None
+        if self.action_mode == "position":
+            params = load_params() if params is None else params
+            limits = params_command_limits(params) if command_limits is None else command_limits
+            self.targets = PositionTargets(params, limits)
 
     def predict(self, obs):
-        action, _ = self.model.predict(np.asarray(obs, np.float32), deterministic=True)
+        obs = np.asarray(obs, np.float32)
+        action, _ = self.model.predict(obs, deterministic=True)
+        if self.targets is not None:
+            return self.targets.velocity_action(obs, action)
         return np.clip(action, -ACTION_LIMIT, ACTION_LIMIT).astype(np.float32)
 
 
@@ -157,4 +173,4 @@ def make_policy(spec: str, params: Optional[dict] = None, command_limits=None, s
         params = load_params() if params is None else params
         limits = params_command_limits(params) if command_limits is None else command_limits
         return ScriptedBaseline(params, limits)
-    return ModelPolicy(spec)
+    return ModelPolicy(spec, params, command_limits)

@@ -14,8 +14,7 @@ import numpy as np
 
 from foos_core.names import JOINT_NAMES
 
-from .observation import ACTION_LIMIT
-from .policies import load_model
+from .policies import ModelPolicy
 from .scripted import ScriptedPolicy
 
 RESETS = ("paper", "hardened", "resting")
@@ -180,14 +179,14 @@ class ScriptedOpponent:
 
 
 class FrozenPolicyOpponent:
-    """Self-play: a saved SB3 policy plays the away rods through the mirrored observation."""
+    """Self-play: a saved SB3 policy plays the away rods through the mirrored observation (velocity actions,
+    or position targets followed by their controller, as ModelPolicy plays either)."""
 
-    def __init__(self, path: str | Path):
-        self.model = load_model(path)
+    def __init__(self, path: str | Path, params: dict, command_limits):
+        self.policy = ModelPolicy(path, params, command_limits)
 
     def act(self, obs: np.ndarray) -> np.ndarray:
-        action, _ = self.model.predict(obs, deterministic=True)
-        return np.clip(action, -ACTION_LIMIT, ACTION_LIMIT)
+        return self.policy.predict(obs)
 
 
 class ReactionDelay:
@@ -229,5 +228,5 @@ def _make_opponent(name: str, sim, opponent_policy: str | None) -> Opponent:
     if name == "selfplay":
         if not opponent_policy:
             raise ValueError("--opponent selfplay needs --opponent-policy PATH.zip (the frozen policy)")
-        return FrozenPolicyOpponent(opponent_policy)
+        return FrozenPolicyOpponent(opponent_policy, sim.params, sim.command_limits)
     raise ValueError(f"unknown opponent `{name}` (expected one of {OPPONENTS})")

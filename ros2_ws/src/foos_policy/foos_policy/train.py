@@ -11,6 +11,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from .actions import ACTION_MODES
 from .commands import add_task_arguments, check_task_arguments, run_command, write_json
 from .curriculum import stage_at, stages
 from .env import make_env
@@ -57,6 +58,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--curriculum", action="store_true",
                    help="train first on a resting ball with still away rods (15 %% of the budget), then the task's serve "
                         "with still away rods (15 %%), then the task itself")
+    p.add_argument("--action", choices=ACTION_MODES, default="velocity",
+                   help="velocity: the paper's 8-D action in [-20, 20], a share of each drive's speed limit; position: "
+                        "rod position targets in [-1, 1]^8 (slide a share of the travel, rotation a share of pi) that a "
+                        "braking-curve controller follows (foos_policy.actions; policy_node still publishes velocities) "
+                        "(default velocity)")
     p.add_argument("--steps", type=int, default=20000,
                    help="environment steps to train (default 20000; SBX SAC learns at ~330 steps/s on a free core)")
     add_task_arguments(p)
@@ -176,7 +182,7 @@ def train(args) -> dict:
     def env_factory(rank: int):
         def make():
             env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward, opponent_delay=args.opponent_delay,
-                           view=args.view, opponent_view=args.opponent_view)
+                           view=args.view, opponent_view=args.opponent_view, params_file=args.params_file, action=args.action)
             env.reset(seed=args.seed * 1000 + rank)
             return env
         return make
@@ -209,6 +215,7 @@ def train(args) -> dict:
         "interrupted": interrupted, "wall_s": round(wall, 1), "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 1),
         "learner": args.learner, "reward": args.reward, "curriculum": args.curriculum,
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
+        "params_file": args.params_file, "action": args.action,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
         "command": "train " + " ".join(sys.argv[1:]) if sys.argv else "",
