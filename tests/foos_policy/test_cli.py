@@ -74,6 +74,42 @@ def test_evaluate_writes_a_summary_with_confidence_intervals(trained, run_cli, t
         assert summary["episodes"] == 3
 
 
+@pytest.mark.timeout(300)
+def test_evaluate_transfer_pairs_the_same_episodes_on_other_tables(run_cli, tmp_path):
+    """--transfer-to plays the very episodes of --params-file on other tables: on the same table again the paired
+    change is exactly zero (same starts, same camera noise, deterministic physics); on another it is the
+    difference of the two win rates, with a bootstrap interval around it."""
+    from foos_core.table_params import ROBOT_PARAMS_FILE, SERVO_PARAMS_FILE
+
+    target = tmp_path / "transfer.json"
+    proc = run_cli("evaluate", "--policy", "scripted", "--reset", "hardened", "--opponent", "scripted", "--episodes", "6",
+                   "--seed", "2", "--params-file", str(ROBOT_PARAMS_FILE),
+                   "--transfer-to", str(ROBOT_PARAMS_FILE), str(SERVO_PARAMS_FILE), "--out", str(target), "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(target.read_text())
+    same, servo = summary["transfer"]
+    assert same["win_difference"] == 0.0 and same["win_difference_ci95"] == [0.0, 0.0]
+    assert same["own_goal_difference"] == 0.0 and same["win_rate"] == summary["win_rate"]
+    assert servo["win_difference"] == pytest.approx(servo["win_rate"] - summary["win_rate"])
+    lo, hi = servo["own_goal_difference_ci95"]
+    assert lo <= servo["own_goal_difference"] <= hi
+    assert "paired, same episodes" in proc.stdout and str(SERVO_PARAMS_FILE) in proc.stdout
+
+
+def test_paired_difference_resamples_whole_pairs():
+    from foos_policy.evaluation import paired_difference
+
+    base = np.array([1, 0, 1, 0, 1, 0, 1, 0] * 10)
+    mean, lo, hi = paired_difference(base, base)
+    assert (mean, lo, hi) == (0.0, 0.0, 0.0)  # independent intervals would each span about +-0.11
+    flipped = base.copy()
+    flipped[:8] = 1  # four more wins in 80 episodes
+    mean, lo, hi = paired_difference(base, flipped)
+    assert mean == pytest.approx(0.05) and 0.0 <= lo < 0.05 < hi <= 0.1
+    with pytest.raises(ValueError, match="same episodes"):
+        paired_difference(base, base[:-1])
+
+
 @pytest.mark.timeout(180)
 def test_self_play_against_a_frozen_policy(trained, run_cli, tmp_path):
     out, _ = trained

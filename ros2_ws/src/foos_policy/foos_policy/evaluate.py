@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .commands import add_task_arguments, check_task_arguments, run_command
 from .env import make_env
-from .evaluation import episode_seeds, run_episodes, summarize
+from .evaluation import episode_seeds, paired_difference, run_episodes, summarize
 from .policies import PolicyError, make_policy, shipped_policies
 
 DESCRIPTION = """\
@@ -27,7 +27,10 @@ scored with no home touch at all (the serve's inflation), each with a 95 % inter
 normal for means). Episodes use seeds SEED*100003 + i, so two policies with the same --seed and
 --episodes see the same serves.
 
-Example:
+--transfer-to FILE... plays the same episodes on other tables and prints, for each, the paired change of
+the win and own-goal rates with a 95 % bootstrap interval over the episodes (the JSON's `transfer`).
+
+Examples:
   ros2 run foos_policy evaluate --policy zero --reset paper --opponent none --episodes 200 --seed 0 --out zero_paper.json
 """
 
@@ -36,6 +39,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="evaluate", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--policy", help="zero | random | scripted | shipped NAME | PATH.zip")
     add_task_arguments(p)
+    p.add_argument("--transfer-to", nargs="+", default=[], metavar="PARAMS_FILE",
+                   help="also play the same episodes (seeds) on these tables, e.g. the 20 kHz reference "
+                        "(params/robot_reference_table.yaml) or a calibrated table, and report how the win and own-goal "
+                        "rates change from --params-file's: the paired difference with a 95 %% bootstrap interval over "
+                        "the episodes")
     p.add_argument("--episodes", type=int, default=100, help="number of episodes (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the episode set (default 0)")
     p.add_argument("--out", default=None, help="JSON file to write (default: print only)")
@@ -50,22 +58,42 @@ def parse_args(argv=None) -> argparse.Namespace:
     return args
 
 
-def evaluate(args) -> dict:
-    env = make_env(args.reset, args.opponent, args.opponent_policy, params_file=args.params_file, opponent_delay=args.opponent_delay,
+def play(args, params_file, seeds: list[int]) -> tuple[list[dict], dict]:
+    """The episodes of `seeds` on the table `params_file`, and what the summary says of the set-up."""
+    env = make_env(args.reset, args.opponent, args.opponent_policy, params_file=params_file, opponent_delay=args.opponent_delay,
                    view=args.view, opponent_view=args.opponent_view)
     policy = make_policy(args.policy, env.sim.params, env.sim.command_limits, seed=args.seed)
     start = time.time()
-    results = run_episodes(env, policy.predict, episode_seeds(args.seed, args.episodes), progress=not args.no_progress,
-                           desc=f"{policy.name} {args.reset}/{args.opponent}")
-    wall = time.time() - start
-    return summarize(results, extra={
+    results = run_episodes(env, policy.predict, seeds, progress=not args.no_progress,
+                           desc=f"{policy.name} {args.reset}/{args.opponent} {Path(params_file).stem if params_file else 'nominal'}")
+    return results, {"params_file": params_file, "physics": env.sim.physics, "wall_s": round(time.time() - start, 1),
+                     "opponent_delay_s": env.opponent_delay_steps * env.dt, "camera_latency_s": env.config.camera_latency,
+                     "camera_noise_m": env.config.camera_noise, "control_rate_hz": 1.0 / env.dt, "max_steps": env.config.max_steps}
+
+
+def transfer_row(base: list[dict], results: list[dict], setup: dict) -> dict:
+    """One other table's rates, and their paired differences from the base table's on the same episodes."""
+    summary = summarize(results)
+    row = {key: summary[key] for key in ("win_rate", "win_rate_ci95", "own_goal_rate", "own_goal_rate_ci95", "touches")}
+    for rate, key in (("win", "win"), ("own_goal", "lose")):
+        mean, low, high = paired_difference([r[key] for r in base], [r[key] for r in results])
+        row[f"{rate}_difference"] = mean
+        row[f"{rate}_difference_ci95"] = [low, high]
+    return {**setup, **row}
+
+
+def evaluate(args) -> dict:
+    seeds = episode_seeds(args.seed, args.episodes)
+    results, setup = play(args, args.params_file, seeds)
+    transfer = [transfer_row(results, *play(args, other, seeds)) for other in args.transfer_to]
+    summary = summarize(results, extra={
         "policy": args.policy, "reset": args.reset, "opponent": args.opponent, "seed": args.seed,
-        "opponent_delay_s": env.opponent_delay_steps * env.dt, "view": args.view, "opponent_view": args.opponent_view,
-        "camera_latency_s": env.config.camera_latency, "camera_noise_m": env.config.camera_noise,
-        "params_file": args.params_file, "physics": env.sim.physics,
-        "control_rate_hz": 1.0 / env.dt, "max_steps": env.config.max_steps, "wall_s": round(wall, 1),
+        "view": args.view, "opponent_view": args.opponent_view, **setup,
         "command": "evaluate " + " ".join(sys.argv[1:]),
     })
+    if transfer:
+        summary["transfer"] = transfer
+    return summary
 
 
 def main(argv=None) -> int:
@@ -84,6 +112,11 @@ def main(argv=None) -> int:
           f"[{summary['win_rate_ci95'][0]:.3f}, {summary['win_rate_ci95'][1]:.3f}]  own goal {summary['own_goal_rate']:.3f}  "
           f"length {summary['mean_length']:.1f}  touches {summary['touches']:.2f}  "
           f"no-touch goal share {'n/a' if share is None else f'{share:.3f}'}  ({summary['episodes']} episodes)")
+    for row in summary.get("transfer", []):
+        dw, dl = row["win_difference_ci95"], row["own_goal_difference_ci95"]
+        print(f"  on {row['params_file']} ({row['physics']}): win {row['win_rate']:.3f}, change {row['win_difference']:+.3f} "
+              f"[{dw[0]:+.3f}, {dw[1]:+.3f}]; own goal {row['own_goal_rate']:.3f}, change {row['own_goal_difference']:+.3f} "
+              f"[{dl[0]:+.3f}, {dl[1]:+.3f}] (paired, same episodes)")
     return 0
 
 

@@ -46,6 +46,21 @@ def t_interval(values) -> tuple[float, float, float]:
     return (m, m - half, m + half)
 
 
+def paired_difference(base, other, resamples: int = 10_000, seed: int = 0) -> tuple[float, float, float]:
+    """Mean of other - base over paired episodes (the same seeds on two tables) and its 95 % percentile
+    bootstrap interval, resampling whole episode pairs: pairing removes the spread the starts themselves cause,
+    which two independent Wilson intervals would count twice."""
+    a = np.asarray(base, dtype=float)
+    b = np.asarray(other, dtype=float)
+    if a.shape != b.shape or a.size == 0:
+        raise ValueError(f"paired outcomes need the same episodes on both tables, got {a.size} and {b.size}")
+    difference = b - a
+    rng = np.random.default_rng(seed)
+    means = difference[rng.integers(0, difference.size, (resamples, difference.size))].mean(axis=1)
+    low, high = np.percentile(means, [2.5, 97.5])
+    return float(difference.mean()), float(low), float(high)
+
+
 def episode_seeds(seed: int, episodes: int) -> list[int]:
     """The fixed seed set: the same episodes for every policy evaluated with the same --seed."""
     return [seed * 100_003 + i for i in range(episodes)]
