@@ -7,7 +7,7 @@ from pathlib import Path
 
 from foos_bag import BagError, read_ball_states, read_goals, read_joint_states, topics
 from foos_core.joints import joint_order, take_joints
-from foos_core.names import GOAL_TOPIC, TEAMS
+from foos_core.names import BALL_STATE_TOPIC, GOAL_TOPIC, SIM_BALL_STATE_TOPIC, TEAMS
 from foos_core.table_params import load_params
 from foos_sim import command_limits
 
@@ -18,7 +18,8 @@ from .policies import PolicyError, make_policy
 
 DESCRIPTION = """\
 Compute a recorded game's statistics from a rosbag2 bag holding /ball/state, /joint_states and /sim/goal
-(as recorded from sim_node + policy_node): goals per team, the home share of goals with a 95 % Wilson
+(as recorded from sim_node + policy_node; where the bag holds /sim/ball/state, sim_node's true ball while its
+camera fed tracker_node, that is the ball the game is judged on): goals per team, the home share of goals with a 95 % Wilson
 interval, goals per minute, rod-ball touches per team, possession and shot speeds.
 
 Touches are inferred (a bag has no contact data): the ball within reach of a figure at its recorded slide
@@ -57,14 +58,18 @@ def evaluate_bag(args) -> dict:
     if not path.exists():
         raise FileNotFoundError(f"no bag at {path}")
     params = load_params(args.params_file)
-    balls = read_ball_states(path)
+    recorded = topics(path)
+    # With the simulated camera on, /ball/state is what tracker_node made of the images, and sim_node's true ball
+    # is /sim/ball/state: a game is judged on what happened, so the truth is read where the bag has it.
+    ball_topic = SIM_BALL_STATE_TOPIC if SIM_BALL_STATE_TOPIC in recorded else BALL_STATE_TOPIC
+    balls = read_ball_states(path, ball_topic)
     joints = read_joint_states(path)
     order = joint_order(joints.names, allow_missing=True)
     missing = missing_joints(order)
     if missing:
         raise ValueError(f"{path}: /joint_states lacks {len(missing)} rod joints (e.g. {missing[0]})")
     q = take_joints(joints.position, order)
-    has_goals = GOAL_TOPIC in topics(path)
+    has_goals = GOAL_TOPIC in recorded
     goal_teams = read_goals(path)[1] if has_goals else []  # read_goals gives (stamps, teams)
     bad = [g for g in goal_teams if g not in TEAMS]
     if bad:
@@ -72,6 +77,7 @@ def evaluate_bag(args) -> dict:
     stats = analyze_game(params, balls.t, balls.position, balls.velocity, joints.t, q, goal_teams)
     stats["bag"] = str(path)
     stats["goal_topic"] = has_goals
+    stats["ball_topic"] = ball_topic
     if args.compare_policy:
         if args.compare_games < 1:
             raise ValueError(f"--compare-games must be at least 1, got {args.compare_games}")
