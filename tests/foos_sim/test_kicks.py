@@ -72,3 +72,17 @@ def test_random_kicks_and_blocks_neither_tunnel_nor_escape(both, physics):
     bad = [(i, r) for i, r in enumerate(results) if not r.ok]
     assert not bad, bad
     assert max(r.max_ball_speed for r in results) > 8.0  # kicks at the new drives' speeds were among them
+
+
+@pytest.mark.parametrize("ahead", [0.03, 0.05, 0.07])
+def test_a_still_ball_before_a_still_figure_stays_put(ahead):
+    """Nothing moves: the sweep test's closing speed is zero (it divided by it: a ZeroDivisionError whenever a rod held
+    still at its target faced a ball at rest, as position-target policies and resting curricula do)."""
+    sim = TableSimulation(ROBOT_PARAMS_FILE)
+    y = float(sim.params["rods"]["layout"]["home_attack"]["y"]) + ahead
+    sim.reset(ball_position=np.array([0.0, y]), ball_velocity=np.zeros(2))
+    for team in ("home", "away"):
+        sim.set_command(team, np.zeros(8))
+    sim.advance(0.1)
+    assert sim.ball_position()[:2] == pytest.approx((0.0, y), abs=1e-4)
+    assert np.all(sim.joint_velocities() == 0.0)

@@ -235,6 +235,8 @@ class SweepTest:
                 least = min(least, ds * ds + dl * dl + dx * dx)
             return math.sqrt(least) - touch - lag * t
 
+        if closing <= 0.0:  # a still ball, a still rod at its target: the gap stays what it is all step
+            return (0.0, 1.0) if gap(0.0) <= 1e-4 else None
         resolution = 1e-4 / max(closing, 1e-3)  # s: a gap under 0.1 mm counts as met
         t = 0.0
         while True:
