@@ -48,6 +48,31 @@ def test_a_game_bag_calibrates_its_rods(ros2_run, tmp_path):
     assert report["not_checked"] == []  # encoders and both teams' commands: everything was checked
 
 
+def test_a_game_filmed_by_a_camera_alone(ros2_run, tmp_path):
+    """Issue 27 item 5: the same kind of game with /joint_states and the commands left out. The rod latency hidden in it
+    cannot be named, the report says what it could not check, the touches the rod lines missed are cut out of the
+    rolling segments, and nothing is named that the data does not support."""
+    bag = tmp_path / "camera_only"
+    made = ros2_run("generate_measured", str(bag), "--game", "--camera-only", "--duration", "40", "--seed", "2",
+                    "--effect", "rod_latency:delay=0.04", timeout=120)
+    assert made.returncode == 0, made.stderr
+    assert "the camera alone" in made.stdout and set(topics(bag)) == {"/ball/detection"}
+    out = tmp_path / "out"
+    result = ros2_run("calibrate", str(bag), "--out", str(out), "--no-figures", "--max-starts", "10", timeout=300)
+    assert result.returncode == 0, result.stderr
+    report = json.loads((out / "report.json").read_text())
+    assert not [e for e in report["effects"] if e["name"].startswith("rod_")] and "rods" not in report
+    assert [item.split(":")[0] for item in report["not_checked"]] == [
+        "the rod drives (rod_latency, rod_speed_limit, rod_acceleration_limit)", "camera_latency", "figure_restitution",
+        "figure contacts"]
+    assert report["data"]["camera_only_game"] and report["data"]["hidden_touch_cuts"] > 0
+    assert "free stretches of 0.5 s or more" in report["not_checked"][-1]
+    assert_every_named_effect_gains(report)
+    for effect in report["effects"]:  # a rolling table effect, if any, judged on the long free stretches only
+        if effect["name"] != "wall_restitution":  # the walls are judged on their bounces' replays
+            assert effect["evidence"]["gain"]["min_stretch_s"] == 0.5
+
+
 def held_out_intervals(gain) -> list[list[float]]:
     """Every 95 % interval of a drop in an effect's `evidence.gain` (per part, per axis where it has them)."""
     if not isinstance(gain, dict):

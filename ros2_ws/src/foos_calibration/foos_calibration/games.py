@@ -74,6 +74,7 @@ class GameOptions:
     slide_velocity_noise: float = 0.02  # m/s, of the velocity the encoders report
     rotate_velocity_noise: float = 0.3  # rad/s
     excitation: float = 0.35  # share of control periods in which a rod starts a random burst
+    camera_only: bool = False  # write /ball/detection alone: a game filmed from above, no encoders, no commands
 
 
 @dataclass
@@ -89,6 +90,7 @@ class GameRecording:
     goals: list[str] = field(default_factory=list)
     touches: tuple[int, int] = (0, 0)
     style: dict | None = None  # game_styles.GameStyle.as_dict() of a styled game
+    camera_only: bool = False  # its bag holds the camera's detections alone
 
 
 def _selects(params: dict, team: str, rod: str, axis: str) -> bool:
@@ -380,6 +382,8 @@ def write_game_bag(recording: GameRecording, path: str | Path) -> None:
     array, layout = store.types[FLOAT64_MULTI_ARRAY], store.types["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
     with BagWriter(path) as writer:
         write_ball_detections(writer, recording.ball_t, recording.ball_position)
+        if recording.camera_only:
+            return
         write_joint_states(writer, recording.joint_t, JOINT_NAMES, recording.joint_position, recording.joint_velocity)
         for team in TEAMS:
             topic = command_topic(team)
@@ -415,6 +419,7 @@ def generate_game(path: str | Path, effects: Sequence[dict], options: GameOption
     if Path(path).exists():
         raise GameError(f"{path} exists already; choose another name or delete it")
     recording = play(effects, options, params, style)
+    recording.camera_only = options.camera_only
     write_game_bag(recording, path)
     return recording
 
@@ -430,11 +435,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "command stamps) from --seed; a style's name (default, bang_bang, into_stops, spinning, "
                              "held_still, fast_commands, passive, aggressive) gives both teams that style and draws the "
                              "conditions. It overrides --fps and --encoder-rate; the bag gets it as generator_style.json")
+    parser.add_argument("--camera-only", action="store_true",
+                        help="game: write the camera's /ball/detection alone, no /joint_states and no commands (a real game "
+                             "filmed from above); calibrate then infers the figure contacts from the ball and names no drive "
+                             "effect")
 
 
 def options_from(args: argparse.Namespace) -> GameOptions:
     options = GameOptions(duration=args.duration, seed=args.seed, fps=args.fps, noise=args.noise, dropout=args.dropout,
-                          encoder_rate=args.encoder_rate, excitation=args.excitation)
+                          encoder_rate=args.encoder_rate, excitation=args.excitation, camera_only=args.camera_only)
     if not (options.duration > 0 and options.fps > 0 and options.noise >= 0 and 0 <= options.dropout < 1
             and options.encoder_rate > 0 and 0 <= options.excitation <= 1):
         raise GameError("need duration > 0, fps > 0, noise >= 0, 0 <= dropout < 1, encoder rate > 0, 0 <= excitation <= 1")
@@ -442,8 +451,10 @@ def options_from(args: argparse.Namespace) -> GameOptions:
 
 
 def describe(recording: GameRecording, path) -> str:
+    written = ("the camera alone (no joint states, no commands)" if recording.camera_only else
+               f"{len(recording.joint_t)} joint states, {len(recording.command_t)} commands per team")
     return (f"wrote {path}: a {recording.joint_t[-1]:.0f} s game, {len(recording.ball_t)} detections, "
-            f"{len(recording.joint_t)} joint states, {len(recording.command_t)} commands per team, {recording.serves} serves, "
+            f"{written}, {recording.serves} serves, "
             f"{len(recording.goals)} goals, figure touches home {recording.touches[0]} away {recording.touches[1]}; "
             "hidden effects are not in the bag")
 

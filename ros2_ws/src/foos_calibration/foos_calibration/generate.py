@@ -350,6 +350,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         if args.style is not None:
             raise ValueError("--style is for games: add --game")
+        if args.camera_only:
+            raise ValueError("--camera-only is for games (free rolls have the camera alone already): add --game")
         if args.game and args.shape:
             raise ValueError("--shape is hidden in free rolls only (leave out --game)")
         if any(e["name"] in games.DRIVE_EFFECTS for e in effects):  # a free roll has no drives to hide them in

@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
@@ -14,7 +14,16 @@ import yaml
 from foos_core.table_geometry import TableGeometry
 from foos_core.table_params import load_params
 
-from . import effect_gain, figures, rod_report, surface_correction, surrogate, table_gain, wall_segments
+from . import (
+    effect_gain,
+    figures,
+    hidden_touches,
+    rod_report,
+    surface_correction,
+    surrogate,
+    table_gain,
+    wall_segments,
+)
 from . import rods as rod_drives
 from .bounces import fit_restitution, fold_restitution
 from .evaluate import HORIZONS, choose_starts, errors_of, estimate_states, predict, summary
@@ -29,6 +38,9 @@ from .unexplained import FAR_ABOVE, FIGURE_FILE, find_unexplained, prediction_fl
 
 PARAMS_FILE_NAME = "calibrated_table.yaml"
 MIN_SEGMENTS = 6
+# A recording without encoders in which the ball left a figure this often is a game filmed by a camera alone, not
+# free rolls with the rods lifted (where the rod lines find no figure contact at all).
+CAMERA_GAME_FIGURE_CONTACTS = 3
 
 
 @dataclass
@@ -143,12 +155,22 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
     if game is not None:
         t = game.t  # the detections at capture time (a named camera latency taken off)
     measured = analyse(t, xy, geometry, figures=for_game(params, joints, game.figure_model if game is not None else None))
+    # A game filmed by a camera alone (the ball met figures, no encoders posed them): cut the rolling segments where
+    # a touch the rod lines missed hides, and judge each table effect's gain on the long free stretches only.
+    camera_game = joints is None and sum(f.after_figure for f in measured.flights) >= CAMERA_GAME_FIGURE_CONTACTS
+    hidden_cuts = 0
+    if camera_game:
+        progress("cutting the rolling segments at touches the camera alone did not see")
+        segments, hidden_cuts = hidden_touches.split_hidden_touches(measured.segments, measured.noise)
+        measured = replace(measured, segments=segments)
     if len(measured.segments) < MIN_SEGMENTS:
         raise DataError(f"too little rolling data: {len(measured.segments)} rolling segments of at least 0.25 s "
                         f"(need {MIN_SEGMENTS}); record more rolls")
     selection = select_effects(measured.segments, measured.noise, theta_base, geometry, progress)
     progress("measuring each rolling effect's held-out gain")
-    _judge_gains(measured, selection, theta_base, options.seed, progress)
+    # with a camera alone the inferred figure contacts may hide a touch in a short segment (table_gain)
+    _judge_gains(measured, selection, theta_base, options.seed, progress,
+                 min_duration=table_gain.CAMERA_ONLY_MIN_STRETCH if camera_game else 0.0)
     modelled = list(dict.fromkeys(kept + selection.effects))  # base effects, refitted or kept, and new ones
     rolling_effects = effects_list(modelled, selection.fit.theta)
     progress("fitting wall restitution on MuJoCo replays of the bounces")
@@ -239,7 +261,7 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
         "params_file": str(params_file.resolve()),
         "unexplained": unexplained,
         "noise_floor": noise_floor,
-        "not_checked": not_checked(rods is not None, encoders is not None),
+        "not_checked": not_checked(rods is not None, encoders is not None, camera_game),
         "rejected": _rejected(selection, restitution, rods, game),
         # The generic correction, outside the vocabulary: tried on every ball, reported under `unexplained` only with
         # a held-out gain; it changes neither the calibrated file nor the `calibrated` errors.
@@ -249,6 +271,7 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
             "bag": bag, "detections": int(len(t)), "duration_s": round(float(t[-1] - t[0]), 2),
             "tracks": len(measured.tracks), "rolling_segments": len(measured.segments),
             "bounces_used": len(restitution.windows), "noise_mm": round(measured.noise * 1000, 2),
+            "camera_only_game": camera_game, "hidden_touch_cuts": hidden_cuts,
         },
         "method": {
             "selection": "forward selection; an effect is named when its held-out error drop (2 alternating folds of segments) exceeds "
@@ -292,14 +315,14 @@ def _calibrate_ball(t, position, frame_id, out_dir, options, progress, bag, rods
     return report
 
 
-def _judge_gains(measured, selection, theta_base, seed, progress) -> None:
+def _judge_gains(measured, selection, theta_base, seed, progress, min_duration: float = 0.0) -> None:
     """Nothing named without a held-out gain (table_gain): a named rolling effect that does not lower the ball's held-out
     error on the data it touches, alone and in the final set, moves to `selection.rejected` with its gain, its
     parameters back at the base table's (the others are not refitted)."""
     def build(subset):
         return [_without(theta, [n for n in selection.effects if n not in subset], theta_base) for theta in selection.fold_theta]
 
-    _, gains, refused = table_gain.judge(measured.segments, build, list(selection.effects), seed, progress)
+    _, gains, refused = table_gain.judge(measured.segments, build, list(selection.effects), seed, progress, min_duration)
     for name, evidence in refused.items():
         selection.rejected[name] = {**selection.evidence.pop(name, {}), **evidence}
         selection.effects.remove(name)
@@ -311,7 +334,7 @@ def _judge_gains(measured, selection, theta_base, seed, progress) -> None:
         selection.evidence.setdefault(name, {})["gain"] = gain
 
 
-def not_checked(drives: bool, encoders: bool) -> list[str]:
+def not_checked(drives: bool, encoders: bool, camera_game: bool = False) -> list[str]:
     """What a recording without rod encoders or commands (a camera alone) does not let calibrate check."""
     out = []
     if not drives:
@@ -321,7 +344,9 @@ def not_checked(drives: bool, encoders: bool) -> list[str]:
         out += ["camera_latency: no /joint_states to time the ball's touches of the figures against",
                 "figure_restitution: no /joint_states to pose the figures",
                 "figure contacts: inferred from the ball's path alone (sudden velocity changes near a rod line), so a "
-                "touch that hardly changes the ball's velocity may stay inside a rolling segment"]
+                "touch that hardly changes the ball's velocity may stay inside a rolling segment" +
+                (f"; in this game a segment better fitted as two rolls was cut, and each table effect's gain is judged on "
+                 f"free stretches of {table_gain.CAMERA_ONLY_MIN_STRETCH:g} s or more only" if camera_game else "")]
     return out
 
 

@@ -20,6 +20,10 @@ from .fitting import SegmentBatch, fit_states
 from .tracks import Segment
 
 PIECE = 0.25  # s: held-out stretches of a segment
+# s: with a camera alone, the figure contacts that cut the tracks are inferred from the ball's path, and a touch that
+# hardly turns the ball stays inside a segment; the gain is judged only on free stretches this long, where one is
+# unlikely to hide (issue 27 item 5).
+CAMERA_ONLY_MIN_STRETCH = 0.5
 TOUCH = 0.0005  # m: an effect touches a piece whose paths with and without it part by more than this
 # names (a tuple of named rolling effects) -> [theta fitted on fold 0, theta fitted on fold 1] with only those effects
 Build = Callable[[tuple[str, ...]], list[np.ndarray]]
@@ -77,11 +81,18 @@ class HeldOutPieces:
         return {"touched_pieces": block.pop("stretches"), **{k: v for k, v in block.items() if k != "starts"}}
 
 
+def long_stretches(segments: list[Segment], min_duration: float = CAMERA_ONLY_MIN_STRETCH) -> list[Segment]:
+    """The segments that last at least `min_duration` seconds."""
+    return [s for s in segments if s.t[-1] - s.t[0] >= min_duration]
+
+
 def judge(segments: list[Segment], build: Build, names: list[str], seed: int = 0,
-          progress: Callable[[str], None] = lambda message: None) -> tuple[list[str], dict, dict]:
+          progress: Callable[[str], None] = lambda message: None, min_duration: float = 0.0) -> tuple[list[str], dict, dict]:
     """The named rolling effects that gain, alone and in the final set: (kept names, {name: gain}, {name: refused
-    evidence with the reason}). While any fails, the one that fails worst is refused and the rest judged again."""
+    evidence with the reason}). While any fails, the one that fails worst is refused and the rest judged again.
+    Only segments of at least `min_duration` seconds are held out (CAMERA_ONLY_MIN_STRETCH for a camera alone)."""
     kept, refused, gains = list(names), {}, {}
+    segments = long_stretches(segments, min_duration) if min_duration > 0 else segments
     held = HeldOutPieces(segments)
     if any(b is None for b in held.batches):
         return [], {}, {n: {"reason": "no held-out gain: too few rolls for held-out folds"} for n in kept}
@@ -95,7 +106,7 @@ def judge(segments: list[Segment], build: Build, names: list[str], seed: int = 0
         failing = []
         for name in kept:
             gain = {"what": "the ball's RMS error (mm) about the held-out fit over the pieces of segments it touches",
-                    "piece_s": PIECE,
+                    "piece_s": PIECE, "min_stretch_s": min_duration,
                     "alone": held.drop(model(()), model((name,)), seed),
                     "in_final_set": held.drop(model([n for n in kept if n != name]), model(kept), seed)}
             gains[name] = gain
