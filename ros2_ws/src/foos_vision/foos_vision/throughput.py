@@ -60,7 +60,10 @@ def one_core() -> str:
         return "not pinned (no sched_setaffinity here)"
     allowed = sorted(os.sched_getaffinity(0))
     os.sched_setaffinity(0, {allowed[0]})
-    return f"pinned to core {allowed[0]}"
+    # OpenBLAS starts its threads when numpy is imported, before this: held to one core, they wait on each other (a
+    # dot product of 12k values took 19 ms). scripts/bench_vision sets the variable before Python starts.
+    blas = "" if os.environ.get("OPENBLAS_NUM_THREADS") == "1" else "; OPENBLAS_NUM_THREADS is not 1: BLAS threads share it"
+    return f"pinned to core {allowed[0]}{blas}"
 
 
 def _decode(video: Path) -> tuple[int, float]:

@@ -184,8 +184,8 @@ class MotionMap:
             ys, xs = np.nonzero(grown & faint[sy:ey, sx:ex])
             weights = np.clip(alpha[ys + sy, xs + sx], 0.0, 1.0)
             total = float(weights.sum())
-            cu = float((xs + sx) @ weights) / total
-            cv_ = float((ys + sy) @ weights) / total
+            cu = float(np.dot(xs + sx, weights)) / total  # np.dot: see streaks._blobs
+            cv_ = float(np.dot(ys + sy, weights)) / total
             u, v = x0 + (bx0 + cu + 0.5) / SCALE - 0.5, y0 + (by0 + cv_ + 0.5) / SCALE - 0.5
             if centre is not None and math.hypot(u - centre[0], v - centre[1]) > reach:
                 continue
