@@ -133,3 +133,25 @@ def test_a_labelled_sequence_of_frames_with_markers_is_tracked_and_scored(tmp_pa
     frames, ball, found, median, false = int(fields[3]), int(fields[4]), int(fields[5]), float(fields[7]), int(fields[10])
     assert (frames, ball) == (31, 30), row
     assert found >= 27 and median < 1.0 and false == 0, row
+
+
+@pytest.mark.timeout(300)
+def test_throughput_rows_give_decoding_alone_and_with_tracking(overhead_video):
+    # In a process of its own: the throughput run pins itself to one core.
+    from ..user_env import workspace_env
+
+    markers = overhead_video.with_suffix(".markers.yaml")
+    code = ("from pathlib import Path; from foos_core.markers import load_markers; "
+            "from foos_vision.throughput import run_throughput; "
+            f"run_throughput([('overhead', Path('{overhead_video}'), load_markers('{markers}'), None)], repeats=2)")
+    env = dict(workspace_env(), OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=240)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert "pinned to core" in lines[0] and "OPENBLAS" not in lines[0], lines[0]
+    fields = next(line for line in lines if line.startswith("overhead ")).split()
+    # clip, size, frames, dec fps, fps, ratio, track ms, target verdict, runs
+    frames, decode, tracked, ratio, tracker_ms = int(fields[2]), float(fields[3]), float(fields[4]), float(fields[5]), float(fields[6])
+    assert frames == 73  # 1.2 s at 60 fps, the first frame at 0 and the last at 1.2 s
+    assert 0 < tracked < decode and 0 < ratio < 1 and tracker_ms > 0, fields
+    assert fields[7] in ("met", "missed") and len(fields[8:]) == 2  # the two runs, decoding alone / with tracking

@@ -31,6 +31,6 @@ tracking/: association, Kalman, backfill
 The shells, at the top: bag_inputs (the joint states track_video reads from a bag), image_msg (sensor_msgs/Image
 to BGR), joint_sync (tracker_node's live frames paired with rod joint readings), video_io, annotate; the commands
 track_cli, calibrate_camera, bench (which films with foos_sim.camera; with real_bench: real footage, and
-field_bench: `--field-corners auto` against the truth), camera_loop (the simulated camera in the loop, measured)
-and moved (render_video, now foos_sim's); the nodes tracker_node and video_source.
+field_bench: `--field-corners auto` against the truth, and throughput: frames/s on one core), camera_loop (the
+simulated camera in the loop, measured) and moved (render_video, now foos_sim's); the nodes tracker_node and video_source.
 """

@@ -31,6 +31,10 @@ the share of those with a detection (`fast%`, offline), and the 95th percentile 
 whose exposure the ball was hit (a figure, a wall: its direction turned by HIT_TURN or more, from the shots' own
 states) is counted apart (`hits`, and their recall `hit%`): its streak is bent, and its centre is not measured.
 
+`--throughput` times track_video's offline path on one core, decoding included, next to decoding alone in the same
+run (foos_vision.throughput): the real video clips of --real DIR (default ../shared/realdata) and the 1280x720 render
+THROUGHPUT_CASE, --repeats times each, medians and their ratio.
+
 Every case's game is played on the 20 kHz reference physics (params/reference_table.yaml), where the cases were
 chosen: the videos, and so the numbers in docs/measurements, stay those measured since 21 Nov now that the
 simulation's default is the fast physics, whose games with the same seeds play out differently.
@@ -57,9 +61,11 @@ from foos_core.table_params import REFERENCE_PARAMS_FILE
 from foos_sim.camera.boards import board_views
 from foos_sim.camera.render import read_joints, read_truth
 
+from .camera.field_corners import field_reference
 from .camera.figure_mask import FigureGeometry, joint_track
 from .field_bench import run_field_auto
-from .real_bench import run_cli_body, run_real
+from .real_bench import find_clips, run_cli_body, run_real
+from .throughput import REPEATS, run_throughput
 from .tracking.backfill import OfflineTracker
 from .tracking.tracker import BallTracker, TrackerConfig, choose_colour
 from .tracking.velocity import central_differences
@@ -323,6 +329,30 @@ def run(duration: float, cases: list[Case], workdir: Path, seed: int = 1, echo=p
     return results
 
 
+THROUGHPUT_CASE = "overhead-1280-60-yellow"  # the issue's 1280x720 render
+
+
+def throughput(args) -> None:
+    """bench_vision --throughput: the real video clips (with tags or corners) and the 1280x720 render."""
+    clips = []
+    real = Path(args.real or "../shared/realdata")
+    if real.exists():
+        for clip in find_clips(real):
+            if clip.video is not None and not clip.stills:
+                layout = field_reference(str(clip.markers) if clip.markers else None, clip.corners,
+                                         names=("markers file", "field_corners.txt"))
+                clips.append((clip.name, clip.video, layout, None))
+    else:
+        print(f"{real}: absent, no real clip timed (give --real DIR)")
+    case = next(c for c in CASES if c.name == THROUGHPUT_CASE)
+    with tempfile.TemporaryDirectory(prefix="bench_vision_") as tmp:
+        workdir = Path(args.workdir or tmp)
+        workdir.mkdir(parents=True, exist_ok=True)
+        video = render_case(case, workdir, args.duration, args.seed + CASES.index(case), args.reuse)
+        clips.append((case.name, video, load_markers(f"{video.with_suffix('')}.markers.yaml"), None))
+        run_throughput(clips, args.repeats, args.params_file)
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(prog="bench_vision", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -343,7 +373,14 @@ def main(argv=None) -> None:
                         "from case --field-auto-from")
     p.add_argument("--field-auto-from", type=int, default=0, metavar="SEED", help="the first case's seed (default 0)")
     p.add_argument("--params-file", help="the filmed table's parameter file, for --real (default: the regulation table)")
+    p.add_argument("--throughput", action="store_true",
+                   help="frames/s on one core, decoding included, next to decoding alone (foos_vision.throughput): the "
+                        "real clips of --real DIR (default ../shared/realdata) and THROUGHPUT_CASE rendered in --workdir")
+    p.add_argument("--repeats", type=int, default=REPEATS, help=f"runs per clip for --throughput (default {REPEATS})")
     args = p.parse_args(argv)
+    if args.throughput:
+        run_cli_body(lambda: throughput(args))
+        return
     if args.field_auto:
         run_cli_body(lambda: run_field_auto(args.field_auto, args.field_auto_from))
         return

@@ -141,8 +141,7 @@ class FieldView:
         return self._corner_mapping[1]
 
     def _tag_fit(self, bgr: np.ndarray) -> Optional[PlaneMapping]:
-        gray = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY)
-        centres, corners = self.tags.detect(gray)
+        centres, corners = self.tags.locate(bgr)
         self.stats.tags_seen |= set(centres)
         if corners:
             self.last_tag_corners = corners
@@ -214,10 +213,10 @@ class FieldView:
         projection = projection_from_mapping(self.mapping, (width, height), k, self.fovy_hint)
         self.region = region
         self._make_radius_grid(width, height)
-        ys, xs = np.nonzero(region)
-        if len(xs) == 0:
+        x, y, w, h = cv2.boundingRect(region)  # of its non-zero pixels
+        if w == 0:
             raise MarkersError("the field lies outside the image according to the tags: check the markers file")
-        self.roi = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
+        self.roi = (x, y, x + w, y + h)
         t = self.table
         corners = ((-t.half_width, -t.half_length), (t.half_width, -t.half_length), (t.half_width, t.half_length),
                    (-t.half_width, t.half_length), (0, 0))
@@ -302,10 +301,12 @@ class FieldView:
         p0 = self.lens.distort(self.mapping.to_image(xy))
         px = self.lens.distort(self.mapping.to_image(xy + (d, 0)))
         py = self.lens.distort(self.mapping.to_image(xy + (0, d)))
-        jac = np.stack([(px - p0) / d, (py - p0) / d], axis=2)  # (N, 2, 2)
+        (a, c), (b, e) = ((px - p0) / d).T, ((py - p0) / d).T  # the Jacobian [[a, b], [c, e]] at each point
         # A sphere's outline is not foreshortened the way the plane is: its radius follows the plane's
-        # larger scale (across the line of sight), not the mean of the two.
-        scale = np.linalg.svd(jac, compute_uv=False)[:, 0]
+        # larger scale (across the line of sight), not the mean of the two: the Jacobian's larger singular value,
+        # in closed form for 2x2 (an SVD per grid point cost 15 ms at 1080p).
+        half_norm = (a * a + b * b + c * c + e * e) / 2
+        scale = np.sqrt(half_norm + np.sqrt(np.maximum(half_norm * half_norm - (a * e - b * c) ** 2, 0.0)))
         self._radius_grid = (self.table.ball_radius * scale).reshape(len(vs), len(us))
 
     def pixel_to_table(self, u: float, v: float) -> np.ndarray:

@@ -61,7 +61,7 @@ class MotionMap:
     def __init__(self):
         self._background: Optional[np.ndarray] = None
         self._roi: Optional[tuple[int, int, int, int]] = None
-        self._frame: Optional[np.ndarray] = None
+        self._frame: Optional[np.ndarray] = None  # uint8, this frame's box at SCALE (written into one buffer)
         self._region: Optional[np.ndarray] = None  # where the ball may be, at the background's resolution
         self._region_of: Optional[np.ndarray] = None  # the full-frame region it was made of
 
@@ -80,8 +80,9 @@ class MotionMap:
         if x1 - x0 < 4 or y1 - y0 < 4:
             self._frame = None
             return
-        self._frame = cv2.resize(bgr[y0:y1, x0:x1], None, fx=SCALE, fy=SCALE,
-                                 interpolation=cv2.INTER_AREA).astype(np.float32)
+        # Kept in uint8 (accumulateWeighted takes it so): the float copy is made only where a search reads it.
+        self._frame = cv2.resize(bgr[y0:y1, x0:x1], None, dst=self._frame, fx=SCALE, fy=SCALE,
+                                 interpolation=cv2.INTER_AREA)
         if region is not None and (self._region is None or self._region_of is not region):
             self._region = cv2.resize(region[y0:y1, x0:x1], (self._frame.shape[1], self._frame.shape[0]),
                                       interpolation=cv2.INTER_NEAREST)
@@ -91,7 +92,7 @@ class MotionMap:
         if self._frame is None:
             return
         if self._background is None:
-            self._background = self._frame.copy()
+            self._background = self._frame.astype(np.float32)
         else:
             cv2.accumulateWeighted(self._frame, self._background, LEARN_RATE)
 
@@ -100,7 +101,8 @@ class MotionMap:
         their core). What the ball's colour is learned from when no colour prototype fits it (ball_colour)."""
         if self._frame is None or self._background is None:
             return []
-        change = self._frame - self._background
+        frame = self._frame.astype(np.float32)
+        change = frame - self._background
         moved = cv2.transform(change * change, np.ones((1, 3), np.float32)) >= CHANGE_MIN ** 2
         if self._region is not None:
             moved &= self._region > 0
@@ -123,7 +125,7 @@ class MotionMap:
             core = (xs + sx - cu) ** 2 + (ys + sy - cv_) ** 2 <= (CORE * r) ** 2
             if np.count_nonzero(core) < 3:
                 continue
-            found.append((u, v, self._frame[ys[core] + sy, xs[core] + sx].mean(axis=0)))
+            found.append((u, v, frame[ys[core] + sy, xs[core] + sx].mean(axis=0)))
         return found
 
     def blobs(self, ball_bgr: np.ndarray, radius_at: Callable[[float, float], float],
@@ -143,7 +145,7 @@ class MotionMap:
             bx1, by1 = min(w, int((centre[0] - x0 + reach) * SCALE) + 2), min(h, int((centre[1] - y0 + reach) * SCALE) + 2)
             if bx1 - bx0 < 3 or by1 - by0 < 3:
                 return []
-        frame = self._frame[by0:by1, bx0:bx1]
+        frame = self._frame[by0:by1, bx0:bx1].astype(np.float32)
         background = self._background[by0:by1, bx0:bx1]
         # Per pixel, with c = P - F and e = B - F: alpha = c.e / e.e, and off the line |c|^2 - alpha^2 e.e (channel sums
         # by cv2.transform: four times faster than numpy's on a 1080p field).
@@ -182,8 +184,8 @@ class MotionMap:
             ys, xs = np.nonzero(grown & faint[sy:ey, sx:ex])
             weights = np.clip(alpha[ys + sy, xs + sx], 0.0, 1.0)
             total = float(weights.sum())
-            cu = float((xs + sx) @ weights) / total
-            cv_ = float((ys + sy) @ weights) / total
+            cu = float(np.dot(xs + sx, weights)) / total  # np.dot: see streaks._blobs
+            cv_ = float(np.dot(ys + sy, weights)) / total
             u, v = x0 + (bx0 + cu + 0.5) / SCALE - 0.5, y0 + (by0 + cv_ + 0.5) / SCALE - 0.5
             if centre is not None and math.hypot(u - centre[0], v - centre[1]) > reach:
                 continue
