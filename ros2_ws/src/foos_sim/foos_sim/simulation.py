@@ -431,7 +431,8 @@ class TableSimulation:
                 impacts.set_motion(data, figure_speed, h)
         try:
             if profiles is not None:
-                targets = profiles.targets(data.time, h)
+                # A part: its middle's setpoint alone (the 32-step block of targets() is for whole steps).
+                targets = profiles.sub_targets(data.time, np.array([0.5 * h]))[0] if split else profiles.targets(data.time, h)
                 if targets is not None:
                     data.ctrl[self._all_ctrl] = targets
                     drives.disturb()
