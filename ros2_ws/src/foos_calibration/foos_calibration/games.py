@@ -289,8 +289,9 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
                 hidden.send(arrival, t_index, sent)
         # The jerk-limited drives act on a command at its arrival, within the physics step. The servo table's still
         # get it at the step's start: calibration's servo model (foos_sim.drive_limits.predict_positions) steps its
-        # commands on the 2 ms grid and lagged drives acting at the arrival by 2-9x the encoder noise
-        # (docs/measurements/sim-2026-11-27-command-arrival.md); until it splits its step, as its S-curve branch does.
+        # commands on the 2 ms grid: against drives acting at the arrival its rotation errors rose from 0.9-1.7x the
+        # encoder noise to 2.0-8.5x (docs/measurements/sim-2026-11-27-command-arrival.md). Until it splits its step
+        # where a command falls due, as its S-curve branch does.
         changes = hidden.changes(time, dt) if in_generators else [(time, t, row) for t, row in enumerate(hidden.step(time, dt))]
         for arrival, t_index, row in changes:
             sim.set_command(TEAMS[t_index], row, at=arrival)
