@@ -140,6 +140,16 @@ class HiddenDrives:
         while len(self.queue[team]) > 2 and self.queue[team][1][0] < horizon:
             self.queue[team].pop(0)
 
+    def _acting(self, team: int, i: int, j: int, time: float) -> float:
+        """The command drive j (command index i of `team`) acts on at `time`: the last sent `delay` before."""
+        acting = 0.0
+        for sent, command in self.queue[team]:
+            if sent <= time - self.delay[j] + 1e-9:
+                acting = command[i]
+            else:
+                break
+        return acting
+
     def step(self, time: float, dt: float) -> list[list[float]]:
         """The commands the ideal drives get for the step [time, time + dt), per team."""
         out = []
@@ -147,17 +157,29 @@ class HiddenDrives:
             row = []
             for i in range(COMMAND_SIZE):
                 j = team * COMMAND_SIZE + i
-                acting = 0.0
-                for sent, command in self.queue[team]:
-                    if sent <= time - self.delay[j] + 1e-9:
-                        acting = command[i]
-                    else:
-                        break
-                goal = max(-self.speed[j], min(self.speed[j], acting))
+                goal = max(-self.speed[j], min(self.speed[j], self._acting(team, i, j, time)))
                 change = max(-self.accel[j] * dt, min(self.accel[j] * dt, goal - self.target[j]))
                 self.target[j] += change
                 row.append(self.target[j])
             out.append(row)
+        return out
+
+    def changes(self, time: float, dt: float) -> list[tuple[float, int, list[float]]]:
+        """(arrival, team, command) for the step [time, time + dt): each team's at its start (step()), and again at
+        each instant within it when a command falls due on a drive without an acceleration limit, which a real
+        drive acts on then, not at the next physics step (TableSimulation.set_command's `at`). A rate-limited
+        drive keeps its step's target."""
+        rows = self.step(time, dt)
+        out = [(time, team, row) for team, row in enumerate(rows)]
+        for team, row in enumerate(rows):
+            free = [(i, team * COMMAND_SIZE + i) for i in range(COMMAND_SIZE) if math.isinf(self.accel[team * COMMAND_SIZE + i])]
+            due = sorted({sent + self.delay[j] for sent, _ in self.queue[team] for _, j in free
+                          if time + 1e-9 < sent + self.delay[j] < time + dt - 1e-9})
+            for instant in due:
+                row = list(row)
+                for i, j in free:
+                    row[i] = max(-self.speed[j], min(self.speed[j], self._acting(team, i, j, instant)))
+                out.append((instant, team, row))
         return out
 
 
@@ -267,8 +289,14 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
                 sent = player.command(time, ball, joints[t_index * COMMAND_SIZE:(t_index + 1) * COMMAND_SIZE])
                 commands[team].append(sent)
                 hidden.send(arrival, t_index, sent)
-        for t_index, row in enumerate(hidden.step(time, dt)):
-            sim.set_command(TEAMS[t_index], row)
+        # The jerk-limited drives act on a command at its arrival, within the physics step. The servo table's still
+        # get it at the step's start: calibration's servo model (foos_sim.drive_limits.predict_positions) steps its
+        # commands on the 2 ms grid: against drives acting at the arrival its rotation errors rose from 0.9-1.7x the
+        # encoder noise to 2.0-8.5x (docs/measurements/sim-2026-11-27-command-arrival.md). Until it splits its step
+        # where a command falls due, as its S-curve branch does.
+        changes = hidden.changes(time, dt) if in_generators else [(time, t, row) for t, row in enumerate(hidden.step(time, dt))]
+        for arrival, t_index, row in changes:
+            sim.set_command(TEAMS[t_index], row, at=arrival)
         if pushed is not None:
             pushed.apply()
         goal = sim.step(1)

@@ -47,6 +47,8 @@ class ImplicitForceLimits:
             self.model.actuator_forcerange[self.actuators, 0] = -self.limit[self.actuators]
             self.model.actuator_forcerange[self.actuators, 1] = self.limit[self.actuators]
         if timestep not in self._configs:
+            if len(self._configs) > 8:  # a step split where a command arrives has a length of its own: keep a few
+                self._configs.clear()
             gain, inertia = self._gain, self._inertia
             a = np.flatnonzero(gain * timestep > inertia)  # the drives that can overshoot
             # The implicit step of the servo alone ends at command - (command - velocity) I / (I + h kv): within

@@ -131,6 +131,7 @@ class SimNode(Node):
         self._stamp_base_ns = 0 if self.publish_clock else self.get_clock().now().nanoseconds
         self._inbox: queue.SimpleQueue = queue.SimpleQueue()  # from the executor's thread to the simulation's
         self._wake = threading.Event()  # a paced loop waiting for its next event wakes for the inbox
+        self._pace: tuple[float, float] | None = None  # (wall, simulated) times the paced loop keeps in step
         # Messages reused for every sample (only their values change): building them was a third of the cost.
         self._joints = JointState()
         self._joints.name = list(JOINT_NAMES)
@@ -172,17 +173,25 @@ class SimNode(Node):
 
     # --- inputs (the executor's thread hands them over; the simulation's thread applies them) -------
     def on_command(self, team: str, msg: Float64MultiArray) -> None:
-        self._inbox.put((self.apply_command, (team, list(msg.data))))
+        self._inbox.put((self.apply_command, (team, list(msg.data), time.monotonic())))
         self._wake.set()
 
-    def apply_command(self, team: str, values: list) -> None:
+    def apply_command(self, team: str, values: list, received: float | None = None) -> None:
         try:
-            applied = self.runner.command(team, values)
+            applied = self.runner.command(team, values, at=self.arrival_time(received))
         except CommandError as error:
             self.warn_throttled(f"{command_topic(team)} refused: {error}; rods keep their last command")
             return
         if any(abs(a - v) > 1e-12 for a, v in zip(applied, values)):
             self.get_logger().info(f"{command_topic(team)} clipped to the drive limits", throttle_duration_sec=5.0)
+
+    def arrival_time(self, received: float | None) -> float | None:
+        """The simulated time of a command received at wall time `received` (time.monotonic()) while the loop is
+        paced: the drives act on it then, within a physics step, not at the last event's time. None: now."""
+        if received is None or self._pace is None:
+            return None
+        wall_start, sim_start = self._pace
+        return sim_start + (received - wall_start) * self.real_time_factor
 
     def drain_inbox(self) -> None:
         while True:
@@ -302,6 +311,7 @@ class SimNode(Node):
 
     def _advance_until_stopped(self, stop: node_signals.StopSignal) -> None:
         wall_start, sim_start = time.monotonic(), self.runner.time
+        self._pace = (wall_start, sim_start) if self.real_time_factor > 0 else None
         while rclpy.ok() and not stop.requested:
             self.drain_inbox()
             for event in self.runner.advance():
@@ -313,6 +323,7 @@ class SimNode(Node):
                 self.get_logger().warning("the simulation cannot keep up with the requested real-time factor",
                                           throttle_duration_sec=5.0)
                 wall_start, sim_start = time.monotonic(), self.runner.time
+                self._pace = (wall_start, sim_start)
                 continue
             while not stop.requested:
                 remaining = due - time.monotonic()

@@ -104,9 +104,12 @@ class SimRunner:
         self.reset()  # sets the timers, the watchdog's last commands and the rest detector
 
     # --- commands ------------------------------------------------------------------------------
-    def command(self, team: str, values: Sequence[float]) -> np.ndarray:
-        """Apply a team's command (CommandError on bad input); returns what the drives were given."""
-        clipped = self.sim.set_command(team, values)
+    def command(self, team: str, values: Sequence[float], at: float | None = None) -> np.ndarray:
+        """Apply a team's command (CommandError on bad input); returns what the drives were given. `at`: the
+        simulated time it arrives, from now to the next event (TableSimulation.set_command); default now."""
+        if at is not None:
+            at = min(max(at, self.sim.time), self.next_event_time())
+        clipped = self.sim.set_command(team, values, at=at)
         self._last_command[team] = self.sim.time
         return clipped
 

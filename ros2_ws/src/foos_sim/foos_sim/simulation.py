@@ -7,7 +7,12 @@
     x, y, z = sim.ball_position()
 
 Commands follow the contract: per team 8 target joint velocities in the table frame
-[goalie_slide, goalie_rotate, defence_slide, ..., attack_rotate], clipped to the drives' limits.
+[goalie_slide, goalie_rotate, defence_slide, ..., attack_rotate], clipped to the drives' limits. A command acts
+when it arrives: now, or at `set_command(..., at=t)`, a later simulation time. One that arrives within a physics
+step splits that step there (a real drive acts on a command within its own servo cycle, not at the next 2 ms
+step): the drives' generators switch command at that instant, as the servos do.
+
+    sim.set_command("home", command, at=sim.time + 0.0013)   # sent now, arrives 1.3 ms later
 
 Two physics (foos_sim.model_builder.PHYSICS, `solver.physics` in the parameter file, or the `physics`
 argument): `fast` (the default, 500 Hz, impacts resolved by foos_sim.impacts between MuJoCo's collision
@@ -30,6 +35,8 @@ impacts' look-ahead follows the figures that can strike the ball.
 """
 from __future__ import annotations
 
+import bisect
+import itertools
 import math
 from pathlib import Path
 from typing import Optional, Sequence
@@ -69,6 +76,9 @@ FIGURE_SPEED_MARGIN = 1.2
 # On the reference physics a ramping drive target (an acceleration limit) is updated this often: a ramp held
 # 1 ms moves the target at most a_max * 1 ms (0.05 m/s at 50 m/s^2), well inside the servo's own lag.
 RAMP_UPDATE = 0.001
+# s: a command arriving this close to a step's boundary acts at the boundary (a step split shorter than this would
+# move a 300 rad/s reversal by less than 0.03 mrad); a time this much before now is now.
+ARRIVAL_SNAP = 1e-7
 
 
 class CommandError(ValueError):
@@ -221,33 +231,47 @@ class TableSimulation:
             raise CommandError("a rod command must not contain NaN or infinite values")
         return values
 
-    def set_command(self, team: str, command: Sequence[float]) -> np.ndarray:
-        """Set one team's 8 target joint velocities; returns them clipped to the drive limits."""
+    def set_command(self, team: str, command: Sequence[float], at: float | None = None) -> np.ndarray:
+        """Set one team's 8 target joint velocities; returns them clipped to the drive limits.
+
+        `at`: the simulation time the command arrives at the drives (default now). A later one waits and acts at
+        that instant, within a physics step if it falls inside one (the step is split there); a team's commands act
+        in the order they arrive."""
         if team not in self._team_ctrl:
             raise CommandError(f"unknown team `{team}` (expected one of {TEAMS})")
         clipped = np.minimum(np.maximum(self.validate_command(command), -self.command_limits), self.command_limits)
-        if self._profiles is not None:
-            self._profiles.receive(self.time, TEAMS.index(team), clipped)  # acts through the drive's generator
-            return clipped
-        if self._shaper is not None:
-            self._shaper.receive(self.time, TEAMS.index(team), clipped)  # acts through the drive's limits
-            return clipped
-        self.data.ctrl[self._team_ctrl[team]] = clipped
-        if self._drives is not None:
-            self._drives.disturb()
+        if at is not None:
+            at = float(at)
+            if not math.isfinite(at) or at < self.time - ARRIVAL_SNAP:
+                raise CommandError(f"a command arrives at a finite time no earlier than now ({self.time:.6f} s), got {at}")
+            if at > self.time + ARRIVAL_SNAP:
+                bisect.insort(self._arrivals, (at, next(self._arrival_order), TEAMS.index(team), clipped))
+                return clipped
+        self._apply(TEAMS.index(team), clipped)
         return clipped
 
-    def stop_team(self, team: str) -> None:
+    def _apply(self, team: int, clipped: np.ndarray) -> None:
+        """A team's command acts from now."""
         if self._profiles is not None:
-            self._profiles.receive(self.time, TEAMS.index(team), np.zeros(COMMAND_SIZE))
+            self._profiles.receive(self.time, team, clipped)  # acts through the drive's generator
             return
         if self._shaper is not None:
-            # A stop is a zero command to the drives: it too arrives after their dead time and decelerates.
-            self._shaper.receive(self.time, TEAMS.index(team), np.zeros(COMMAND_SIZE))
+            self._shaper.receive(self.time, team, clipped)  # acts through the drive's limits
             return
-        self.data.ctrl[self._team_ctrl[team]] = 0.0
+        self.data.ctrl[self._team_ctrl[TEAMS[team]]] = clipped
         if self._drives is not None:
             self._drives.disturb()
+
+    def _deliver(self) -> None:
+        """Apply the commands that have arrived by now."""
+        arrivals, now = self._arrivals, self.time + ARRIVAL_SNAP
+        while arrivals and arrivals[0][0] <= now:
+            _, _, team, clipped = arrivals.pop(0)
+            self._apply(team, clipped)
+
+    def stop_team(self, team: str) -> None:
+        # A stop is a zero command to the drives: through the generators, or after the servos' dead time.
+        self._apply(TEAMS.index(team), np.zeros(COMMAND_SIZE))
 
     def drive_limits(self):
         """The drive effects applied (foos_sim.drive_limits.DriveLimits), or None on nominal drives."""
@@ -321,39 +345,94 @@ class TableSimulation:
         return self._goal
 
     def _reference_steps(self, n: int) -> None:
-        model, data, shaper, profiles = self.model, self.data, self._shaper, self._profiles
-        remaining = n
+        h, remaining = self.timestep, n
         while remaining > 0:
             chunk = min(remaining, REFERENCE_CHUNK_STEPS)
-            if profiles is not None:
-                targets = profiles.targets(data.time, chunk * self.timestep)
-                if targets is not None:
-                    data.ctrl[self._all_ctrl] = targets
-            if shaper is not None and not shaper.idle and data.time >= shaper.next_update - 0.5 * self.timestep:
-                # The target ramps over the time since its last update, at most one ramp interval (an idle
-                # shaper's last update may be long ago).
-                data.ctrl[self._all_ctrl] = shaper.target(data.time, min(data.time - shaper.updated_at, RAMP_UPDATE))
-                shaper.schedule(data.time, RAMP_UPDATE)
-            np.copyto(self._step_qvel, data.qvel)
-            mujoco.mj_step(model, data, nstep=chunk)
+            if self._arrivals:
+                self._deliver()
+                if self._arrivals and self._arrivals[0][0] < self.data.time + chunk * h - ARRIVAL_SNAP:
+                    # Up to the step a command arrives in; that step is split at its arrival.
+                    chunk = int((self._arrivals[0][0] - self.data.time + ARRIVAL_SNAP) / h)
+                    if chunk == 0:
+                        self._split_step(h, self._reference_chunk)
+                        remaining -= 1
+                        continue
+            self._reference_chunk(h, chunk)
             remaining -= chunk
-            ncon = data.ncon
-            if ncon:
-                # Every contact of the model is one of the ball's pairs: one with a figure geom is a touch.
-                geoms = data.contact.geom[:ncon]
-                self._note_touches([bool(figures[geoms].any()) for figures in self._team_figure_geoms])
-            else:
-                self._note_touches([False, False])
-            if self._goal is None:
-                self._goal = self._goal_now()
+
+    def _reference_chunk(self, h: float, steps: int = 1) -> None:
+        """`steps` MuJoCo steps of h (h shorter than the model's timestep: a part of a step split by a command)."""
+        model, data, shaper, profiles = self.model, self.data, self._shaper, self._profiles
+        if profiles is not None:
+            targets = profiles.targets(data.time, steps * h)
+            if targets is not None:
+                data.ctrl[self._all_ctrl] = targets
+        if shaper is not None and not shaper.idle and data.time >= shaper.next_update - 0.5 * self.timestep:
+            # The target ramps over the time since its last update, at most one ramp interval (an idle
+            # shaper's last update may be long ago).
+            data.ctrl[self._all_ctrl] = shaper.target(data.time, min(data.time - shaper.updated_at, RAMP_UPDATE))
+            shaper.schedule(data.time, RAMP_UPDATE)
+        np.copyto(self._step_qvel, data.qvel)
+        if h != self.timestep:
+            model.opt.timestep = h
+        try:
+            mujoco.mj_step(model, data, nstep=steps)
+        finally:
+            model.opt.timestep = self.timestep
+        ncon = data.ncon
+        if ncon:
+            # Every contact of the model is one of the ball's pairs: one with a figure geom is a touch.
+            geoms = data.contact.geom[:ncon]
+            self._note_touches([bool(figures[geoms].any()) for figures in self._team_figure_geoms])
+        else:
+            self._note_touches([False, False])
+        if self._goal is None:
+            self._goal = self._goal_now()
 
     def _fast_steps(self, n: int) -> None:
-        data, impacts, drives, shaper, profiles = self.data, self._impacts, self._drives, self._shaper, self._profiles
-        impacts.update_gaps(data)  # the state may have been set since the last step (reset, place_ball)
+        self._impacts.update_gaps(self.data)  # the state may have been set since the last step (reset, place_ball)
         h = self.timestep
         for i in range(n):
+            if self._arrivals:
+                self._deliver()
+                if self._arrivals and self._arrivals[0][0] < self.data.time + h - ARRIVAL_SNAP:
+                    self._split_step(h, self._fast_part)
+                else:
+                    self._fast_part(h)
+            else:
+                self._fast_part(h)
+            # Every other step (4 ms; a shot into a goal spends 16 ms in the pocket before it could come out).
+            if self._goal is None and (i & 1 or i == n - 1):
+                self._goal = self._goal_now()
+
+    def _split_step(self, h: float, part) -> None:
+        """One step of h taken as parts that end where commands arrive within it (`part(length)` steps one), each
+        command applied at its arrival: the drives switch there, not at the step's end. The step ends on the time
+        it would have without the split."""
+        data, arrivals = self.data, self._arrivals
+        end = data.time + h
+        while arrivals and arrivals[0][0] < end - ARRIVAL_SNAP:
+            arrival = arrivals[0][0]
+            part(arrival - data.time)
+            data.time = arrival
+            self._deliver()
+        part(end - data.time)
+        data.time = end
+
+    def _fast_part(self, h: float) -> None:
+        """One fast step of h: the model's timestep, or a part of a step split by a command's arrival."""
+        data, impacts, drives, shaper, profiles = self.data, self._impacts, self._drives, self._shaper, self._profiles
+        split = h != self.timestep
+        if split:
+            self.model.opt.timestep = h
+            drives.set_timestep(h)
+            figure_speed = impacts.figure_speed_limit
+            if profiles is None:
+                impacts.set_motion(data, figure_speed, h)
+        try:
             if profiles is not None:
-                targets = profiles.targets(data.time, h)
+                # A part: its middle's setpoint alone (the 32-step block of targets() is for whole steps).
+                targets = profiles.sub_targets(data.time, np.array([0.5 * h]))[0] if split else profiles.targets(data.time, h)
                 if targets is not None:
                     data.ctrl[self._all_ctrl] = targets
                     drives.disturb()
@@ -370,9 +449,12 @@ class TableSimulation:
                     data.ctrl[self._all_ctrl] = shaper.target(data.time, h)
                     drives.disturb()
                 self._fast_step()
-            # Every other step (4 ms; a shot into a goal spends 16 ms in the pocket before it could come out).
-            if self._goal is None and (i & 1 or i == n - 1):
-                self._goal = self._goal_now()
+        finally:
+            if split:
+                self.model.opt.timestep = self.timestep
+                drives.set_timestep(self.timestep)
+                if profiles is None:
+                    impacts.set_motion(data, figure_speed, self.timestep)
 
     def _sub_steps(self, runs: list[tuple[float, int, float]], h: float) -> None:
         """A fast step of h as runs of (length, count, figure speed) sub-steps (foos_sim.sweeps.Window.sub_steps),
@@ -495,6 +577,8 @@ class TableSimulation:
         if self._profiles is not None:
             self._profiles.reset()
         self._time_owed = 0.0
+        self._arrivals: list = []  # commands still to arrive: (time, order, team, command), by time
+        self._arrival_order = itertools.count()
         self._touching = [False, False]  # touching each team's figures at the last check
         self._touched_in_call = [False, False]
         self._touch_count = [0, 0]
