@@ -25,7 +25,7 @@ component named on most drives of an axis is one effect for all drives (the medi
 own value differs materially from that, or a component named on few drives, gives a per-drive effect
 (team, rod, and for the latency the axis).
 
-The gain: joint positions 0.1 s and 0.25 s ahead (drive_limits.predict_positions) from starts on each
+The gain: joint positions 0.1 s and 0.25 s ahead (drive_prediction) from starts on each
 fold, with the parameters fitted on the other fold, against the nominal drives: medians over starts and
 drives with bootstrap 95 % intervals, slides in mm and rotations in degrees.
 """
@@ -39,10 +39,10 @@ import numpy as np
 
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES, TEAMS
 from foos_sim import scurve
-from foos_sim.drive_limits import DriveLimits, Servo, drive_limits_from_effects, predict_positions
+from foos_sim.drive_limits import DriveLimits, Servo, drive_limits_from_effects
 from foos_sim.drive_profiles import ProfileLimits
 
-from . import drive_gain
+from . import drive_gain, drive_prediction
 
 COMPONENTS = ("latency", "speed", "acceleration")
 EFFECT_OF = {"latency": "rod_latency", "speed": "rod_speed_limit", "acceleration": "rod_acceleration_limit"}
@@ -523,7 +523,9 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
 
     A start on fold k is predicted with fold_limits[1 - k] (fitted on the other fold). The velocity at the
     start is the model's own, from the commands before it (the encoders' velocity is too noisy to start
-    from); the position is the measured one."""
+    from); the position is the measured one. Each horizon ends on the encoder sample nearest it, predicted at that
+    sample's time: a rod turning at 1000 rad/s^2 is a*dt^2/8 = 8 mrad off the straight line between samples 8 ms
+    apart, 2.7x the encoder noise (docs/measurements/calibration-2026-11-27-drive-prediction.md)."""
     span = data.t[-1] - max(HORIZONS)
     t0 = np.arange(data.t[0] + 0.5, span, START_SPACING)
     t0 = data.t[np.searchsorted(data.t, t0)]
@@ -539,26 +541,37 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
         # of its middle): the prediction starts from the setpoint at t0, not from the joint velocity half a step behind.
         ahead = model.timestep / 2 if model.profiles is not None else 0.0
         v0, a0 = model_velocity(data, model, limits, t0[rows] + ahead, acceleration=True)
-        p0 = np.stack([np.interp(t0[rows], data.t, data.position[:, j]) for j in range(len(JOINT_NAMES))], axis=1)
+        p0 = data.position[np.searchsorted(data.t, t0[rows])]
+        ends = _nearest_samples(data.t, t0[rows][:, None] + np.array(HORIZONS)[None, :])
         for i, team in enumerate(TEAMS):
             cols = np.arange(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
-            servo = Servo(model.servo.inertia[cols], model.servo.gain[cols], model.servo.force_limit[cols])
-            predicted = predict_positions(t0[rows], p0[:, cols], v0[:, cols], data.command_t[team], data.commands[team],
-                                          limits.team(team), servo, model.command_limits[cols], HORIZONS,
-                                          model.travel[cols], model.timestep,
-                                          None if model.profiles is None
-                                          else (model.profiles.acceleration[cols], model.profiles.jerk[cols]),
-                                          a0[:, cols])
-            for h, horizon in enumerate(HORIZONS):
-                truth = np.stack([np.interp(t0[rows] + horizon, data.t, data.position[:, j]) for j in cols], axis=1)
-                error = np.abs(predicted[:, h] - truth)
+            team_limits = limits.team(team)
+            if model.profiles is None:
+                servo = Servo(model.servo.inertia[cols], model.servo.gain[cols], model.servo.force_limit[cols])
+                predicted = drive_prediction.servo_positions(
+                    t0[rows], p0[:, cols], v0[:, cols], data.command_t[team], data.commands[team], team_limits, servo,
+                    model.command_limits[cols], model.travel[cols], model.timestep, data.t[ends])
+            else:
+                speed = np.minimum(team_limits.speed, model.command_limits[cols])
+                predicted = drive_prediction.profile_positions(
+                    t0[rows], p0[:, cols], v0[:, cols], a0[:, cols], data.command_t[team][:, None] + team_limits.delay[None, :],
+                    np.clip(data.commands[team], -speed, speed), np.minimum(team_limits.acceleration, model.profiles.acceleration[cols]),
+                    model.profiles.jerk[cols], data.t[ends], model.travel[cols])
+            for h in range(len(HORIZONS)):
+                error = np.abs(predicted[:, h] - data.position[ends[:, h]][:, cols])
                 # A slide that meets its travel stop is left out: the stops are soft (a slide driven into one goes
                 # several cm past its travel in MuJoCo), and no part of the drive model.
-                first, last = np.searchsorted(data.t, t0[rows]), np.searchsorted(data.t, t0[rows] + horizon, side="right")
-                reach = np.array([np.abs(data.position[i:j + 1, cols]).max(axis=0) for i, j in zip(first, last)])
+                first = np.searchsorted(data.t, t0[rows])
+                reach = np.array([np.abs(data.position[i:j + 1, cols]).max(axis=0) for i, j in zip(first, ends[:, h])])
                 near = reach > model.travel[cols] - STOP_MARGIN  # at a stop somewhere on the way
                 errors[rows[:, None], h, cols[None, :]] = np.where(near, np.nan, error)
     return errors, stretch
+
+
+def _nearest_samples(t: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """The index of the sample nearest each of `times`."""
+    after = np.clip(np.searchsorted(t, times), 1, len(t) - 1)
+    return np.where(times - t[after - 1] < t[after] - times, after - 1, after)
 
 
 def gain_summary(errors: np.ndarray, seed: int = 0, n_boot: int = 1000) -> dict:
