@@ -60,6 +60,7 @@ DIFFERENT_RATIO = 1.25  # a drive's speed or acceleration limit differs from the
 STOP_MARGIN = 0.01  # m: slide samples this close to a travel stop are left out (its soft limit holds the rod)
 HORIZONS = (0.1, 0.25)
 START_SPACING = 0.2  # s between prediction starts
+SERVO_SETTLE = 10  # servo time constants before a start from which its velocity at the start is followed (e^-10 left)
 # Coarse grids, each refined around its best value (REFINE points spanning one coarse step either side).
 DELAY_GRID = np.arange(0.0, 0.1505, 0.006)  # s
 SPEED_GRID = np.geomspace(0.2, 1.0, 12)  # shares of the drive's command limit (1: no limit)
@@ -542,15 +543,12 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
         ahead = model.timestep / 2 if model.profiles is not None else 0.0
         v0, a0 = model_velocity(data, model, limits, t0[rows] + ahead, acceleration=True)
         p0 = data.position[np.searchsorted(data.t, t0[rows])]
-        ends = _nearest_samples(data.t, t0[rows][:, None] + np.array(HORIZONS)[None, :])
+        ends = drive_prediction.nearest_samples(data.t, t0[rows][:, None] + np.array(HORIZONS)[None, :])
         for i, team in enumerate(TEAMS):
             cols = np.arange(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
             team_limits = limits.team(team)
             if model.profiles is None:
-                servo = Servo(model.servo.inertia[cols], model.servo.gain[cols], model.servo.force_limit[cols])
-                predicted = drive_prediction.servo_positions(
-                    t0[rows], p0[:, cols], v0[:, cols], data.command_t[team], data.commands[team], team_limits, servo,
-                    model.command_limits[cols], model.travel[cols], model.timestep, data.t[ends])
+                predicted = _servo_positions(data, model, limits, team, cols, t0[rows], p0[:, cols], data.t[ends])
             else:
                 speed = np.minimum(team_limits.speed, model.command_limits[cols])
                 predicted = drive_prediction.profile_positions(
@@ -568,10 +566,27 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
     return errors, stretch
 
 
-def _nearest_samples(t: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """The index of the sample nearest each of `times`."""
-    after = np.clip(np.searchsorted(t, times), 1, len(t) - 1)
-    return np.where(times - t[after - 1] < t[after] - times, after - 1, after)
+def _servo_positions(data: DriveData, model: DriveModel, limits: DriveLimits, team: str, cols: np.ndarray, t0: np.ndarray,
+                     p0: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """The velocity servos' rods at `ends` (drive_prediction.continuous_servo_positions). The servo's velocity at t0 is
+    its own response to the commands over the SERVO_SETTLE time constants before (from the model's lagged velocity
+    there): a slide's servo (I / kv 3-5 ms) filters commands that change every 2 ms; it does not delay them."""
+    servo = Servo(model.servo.inertia[cols], model.servo.gain[cols], model.servo.force_limit[cols])
+    speed = np.minimum(limits.speed[cols], model.command_limits[cols])
+    commands = np.clip(data.commands[team], -speed, speed)
+    due = data.command_t[team][:, None] + limits.delay[cols][None, :]
+    rate = limits.acceleration[cols]
+    finite_rate = np.minimum(rate, 1e15)  # shaped_velocity's ramp: 0 s x inf would be NaN
+
+    def target(times):
+        return shaped_velocity(data.command_t[team], commands, times, limits.delay[cols], speed, finite_rate, np.zeros(len(cols))).T
+
+    warm = SERVO_SETTLE * float(np.max(servo.inertia / servo.gain))
+    start = model_velocity(data, model, limits, t0 - warm)[:, cols]
+    _, v0 = drive_prediction.continuous_servo_positions(t0 - warm, np.zeros_like(p0), start, target(t0 - warm), due, commands,
+                                                        rate, servo, t0[:, None], np.full(len(cols), np.inf))
+    return drive_prediction.continuous_servo_positions(t0, p0, v0, target(t0), due, commands, rate, servo, ends,
+                                                       model.travel[cols])[0]
 
 
 def gain_summary(errors: np.ndarray, seed: int = 0, n_boot: int = 1000) -> dict:
