@@ -8,9 +8,9 @@ one 2 ms step of foos_sim.drive_limits.predict_positions, which then drops the f
 off 0.25 s ahead here); and the rods turn at up to thousands of rad/s^2, so a position read off the straight line
 between two samples 8 ms apart is mrad off (the predictions are scored at the sample nearest each horizon).
 
-The velocity servos' truth is their servo law itself, force kv (command - velocity) clipped to the force limit,
-integrated on 2 us steps from each command's arrival: predict_positions' implicit 2 ms steps put the rotations
-0.04-0.12 rad off 0.25 s ahead there.
+The velocity servos' truth (on the reference physics' table) is their servo law itself, force kv (command - velocity)
+clipped to the force limit, integrated on 2 us steps from each command's arrival: predict_positions' implicit 2 ms
+steps put the rotations 0.04-0.12 rad off 0.25 s ahead there.
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ import numpy as np
 from foos_calibration.game_data import drive_model
 from foos_calibration.rods import HORIZONS, DriveData, limits_of, prediction_errors
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES, TEAMS
-from foos_core.table_params import ROBOT_PARAMS_FILE, SERVO_PARAMS_FILE, load_params
+from foos_core.table_params import ROBOT_PARAMS_FILE, SERVO_REFERENCE_PARAMS_FILE, load_params
 from foos_sim.drive_profiles import ProfileDrives, profile_limits
 
 STEP = 2e-5  # s: the truth's integration step
@@ -100,8 +100,9 @@ SERVO_STEP = 2e-6  # s: the servo truth's integration step
 
 
 def _servo_noisy_game(seed: int = 4) -> tuple[DriveData, object]:
-    params = load_params(SERVO_PARAMS_FILE)
+    params = load_params(SERVO_REFERENCE_PARAMS_FILE)  # the servos as the reference resolves them: their own law
     model = drive_model(params)
+    assert model.continuous
     servo = model.servo
     command_steps, commands = _noisy_commands(np.random.default_rng(seed), _speed_limits(params), SERVO_STEP)
     every = int(round(1.0 / (ENCODER_RATE * SERVO_STEP)))

@@ -60,7 +60,7 @@ DIFFERENT_RATIO = 1.25  # a drive's speed or acceleration limit differs from the
 STOP_MARGIN = 0.01  # m: slide samples this close to a travel stop are left out (its soft limit holds the rod)
 HORIZONS = (0.1, 0.25)
 START_SPACING = 0.2  # s between prediction starts
-SERVO_SETTLE = 10  # servo time constants before a start from which its velocity at the start is followed (e^-10 left)
+SERVO_SETTLE = 10  # time constants before a start from which a servo's velocity is followed to it (e^-10 left)
 # Coarse grids, each refined around its best value (REFINE points spanning one coarse step either side).
 DELAY_GRID = np.arange(0.0, 0.1505, 0.006)  # s
 SPEED_GRID = np.geomspace(0.2, 1.0, 12)  # shares of the drive's command limit (1: no limit)
@@ -97,6 +97,7 @@ class DriveModel:
     travel: np.ndarray  # (16,) slide stops +/-, inf for rotations
     timestep: float  # the physics step the servo's implicit update is taken at
     profiles: ProfileLimits | None = None  # the jerk-limited drives' generators; None: servos on the command
+    continuous: bool = False  # servos predicted by their own law in continuous time; False: as the fast physics steps them
 
     @property
     def servo_accel(self) -> np.ndarray:
@@ -524,9 +525,8 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
 
     A start on fold k is predicted with fold_limits[1 - k] (fitted on the other fold). The velocity at the
     start is the model's own, from the commands before it (the encoders' velocity is too noisy to start
-    from); the position is the measured one. Each horizon ends on the encoder sample nearest it, predicted at that
-    sample's time: a rod turning at 1000 rad/s^2 is a*dt^2/8 = 8 mrad off the straight line between samples 8 ms
-    apart, 2.7x the encoder noise (docs/measurements/calibration-2026-11-27-drive-prediction.md)."""
+    from); the position is the measured one. Each horizon ends on the encoder sample nearest it, predicted at its time:
+    a rod turning at 1000 rad/s^2 is 8 mrad (a dt^2 / 8) off the line between samples 8 ms apart, 2.7x the noise."""
     span = data.t[-1] - max(HORIZONS)
     t0 = np.arange(data.t[0] + 0.5, span, START_SPACING)
     t0 = data.t[np.searchsorted(data.t, t0)]
@@ -538,8 +538,7 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
         if rows.size == 0:
             continue
         limits = fold_limits[1 - k]
-        # A jerk-limited drive's position is its setpoint's integral (the fast physics moves each step at the setpoint
-        # of its middle): the prediction starts from the setpoint at t0, not from the joint velocity half a step behind.
+        # A jerk-limited drive's position is its setpoint's integral: the prediction starts from the setpoint at t0.
         ahead = model.timestep / 2 if model.profiles is not None else 0.0
         v0, a0 = model_velocity(data, model, limits, t0[rows] + ahead, acceleration=True)
         p0 = data.position[np.searchsorted(data.t, t0[rows])]
@@ -548,7 +547,7 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
             cols = np.arange(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
             team_limits = limits.team(team)
             if model.profiles is None:
-                predicted = _servo_positions(data, model, limits, team, cols, t0[rows], p0[:, cols], data.t[ends])
+                predicted = _servo_positions(data, model, limits, team, cols, t0[rows], p0[:, cols], v0[:, cols], data.t[ends])
             else:
                 speed = np.minimum(team_limits.speed, model.command_limits[cols])
                 predicted = drive_prediction.profile_positions(
@@ -567,20 +566,22 @@ def prediction_errors(data: DriveData, model: DriveModel, fold_limits: list[Driv
 
 
 def _servo_positions(data: DriveData, model: DriveModel, limits: DriveLimits, team: str, cols: np.ndarray, t0: np.ndarray,
-                     p0: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """The velocity servos' rods at `ends` (drive_prediction.continuous_servo_positions). The servo's velocity at t0 is
-    its own response to the commands over the SERVO_SETTLE time constants before (from the model's lagged velocity
-    there): a slide's servo (I / kv 3-5 ms) filters commands that change every 2 ms; it does not delay them."""
+                     p0: np.ndarray, v0: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """The velocity servos' rods at `ends`: as the fast physics steps them, or by the servo law (model.continuous,
+    drive_prediction.continuous_servo_positions), whose velocity at t0 is then its own response to the commands over
+    the SERVO_SETTLE time constants before (from the model's lagged velocity there): a slide's servo (I / kv 3-5 ms)
+    filters commands that change every 2 ms; it does not delay them."""
     servo = Servo(model.servo.inertia[cols], model.servo.gain[cols], model.servo.force_limit[cols])
+    if not model.continuous:
+        return drive_prediction.stepped_servo_positions(t0, p0, v0, data.command_t[team], data.commands[team], limits.team(team),
+                                                        servo, model.command_limits[cols], model.travel[cols], model.timestep, ends)
     speed = np.minimum(limits.speed[cols], model.command_limits[cols])
     commands = np.clip(data.commands[team], -speed, speed)
-    due = data.command_t[team][:, None] + limits.delay[cols][None, :]
-    rate = limits.acceleration[cols]
+    due, rate = data.command_t[team][:, None] + limits.delay[cols][None, :], limits.acceleration[cols]
     finite_rate = np.minimum(rate, 1e15)  # shaped_velocity's ramp: 0 s x inf would be NaN
 
-    def target(times):
-        return shaped_velocity(data.command_t[team], commands, times, limits.delay[cols], speed, finite_rate, np.zeros(len(cols))).T
-
+    def target(times):  # the servos' (rate-limited) target
+        return shaped_velocity(data.command_t[team], commands, times, limits.delay[cols], speed, finite_rate, 0.0 * speed).T
     warm = SERVO_SETTLE * float(np.max(servo.inertia / servo.gain))
     start = model_velocity(data, model, limits, t0 - warm)[:, cols]
     _, v0 = drive_prediction.continuous_servo_positions(t0 - warm, np.zeros_like(p0), start, target(t0 - warm), due, commands,
