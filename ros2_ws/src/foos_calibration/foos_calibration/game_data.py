@@ -123,4 +123,8 @@ def drive_model(params: dict) -> DriveModel:
     layout = params["rods"]["layout"]
     travel = np.array([float(layout[name.rsplit("_", 1)[0]]["travel"]) if name.endswith("_slide") else np.inf
                        for name in JOINT_NAMES])
-    return DriveModel(sim.drive_servo(), np.tile(sim.command_limits, len(TEAMS)), travel, FIT_TIMESTEP, sim.drive_profiles())
+    # The velocity servos as the table's physics runs them: the fast physics' 2 ms implicit steps, or the servo law
+    # itself (the 20 kHz reference resolves the servos' 0.1-5 ms time constants, as a real drive has them).
+    continuous = str(params.get("solver", {}).get("physics", "fast")) != "fast"
+    return DriveModel(sim.drive_servo(), np.tile(sim.command_limits, len(TEAMS)), travel, FIT_TIMESTEP, sim.drive_profiles(),
+                      continuous)
