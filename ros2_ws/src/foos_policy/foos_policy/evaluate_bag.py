@@ -90,7 +90,7 @@ def evaluate_bag(args) -> dict:
             games.append(play_game(policy, stats["duration_s"], seed=seed, team=args.team, opponent=opponent,
                                    params_file=args.params_file))
         in_process = pool_games(games)
-        in_process["per_game"] = games
+        in_process["per_game"] = games  # their spread sets the comparison's overdispersion
         stats["in_process"] = in_process
         stats["comparison"] = compare_games(stats, in_process)
     return stats
@@ -109,7 +109,9 @@ def main(argv=None) -> int:
         print(f"in-process ({stats['in_process']['games']} games) {c['duration_b_s']:.1f} s: "
               f"goals home {c['home_goals_b']} - away {c['away_goals_b']}, touches home "
               f"{c['home_touches_b']} (bag: {c['home_goals_a']} - {c['away_goals_a']}, {c['home_touches_a']}); p goals "
-              f"{c['home_goals_p_value']:.3f}, p goals against {c['away_goals_p_value']:.3f}, p touches {c['home_touches_p_value']:.3f}: "
+              f"{c['home_goals_p_value']:.3f}, p goals against {c['away_goals_p_value']:.3f}, p touches {c['home_touches_p_value']:.3f} "
+              f"(the in-process games spread {c['overdispersion']['goals_home']:.1f}, {c['overdispersion']['goals_away']:.1f} and "
+              f"{c['overdispersion']['touches_home']:.1f} times Poisson counts): "
               f"{'consistent' if c['consistent'] else 'NOT consistent'}")
     return 0
 

@@ -160,22 +160,45 @@ def pool_games(games: Sequence[dict]) -> dict:
     }
 
 
-def _rate_test(count_a: int, count_b: int, time_a: float, time_b: float) -> float:
-    """Two-sided p-value that two Poisson counts over times a and b share one rate (conditional binomial test)."""
+def dispersion(counts: Sequence[float], durations: Sequence[float]) -> float:
+    """How much more the games' counts spread than Poisson counts would (Pearson chi-square over its degrees of
+    freedom, at least 1): 1 for one game or a Poisson process."""
+    c, t = np.asarray(counts, dtype=float), np.asarray(durations, dtype=float)
+    if c.size < 2 or c.sum() == 0:
+        return 1.0
+    expected = c.sum() * t / t.sum()
+    return max(1.0, float(np.sum((c - expected) ** 2 / expected) / (c.size - 1)))
+
+
+def _rate_test(count_a: int, count_b: int, time_a: float, time_b: float, overdispersion: float = 1.0) -> float:
+    """Two-sided p-value that two counts over times a and b share one rate: the conditional binomial test of Poisson
+    counts, or where the reference games spread `overdispersion` times more than Poisson counts, its normal
+    approximation with the variance scaled by that factor (quasi-Poisson)."""
     # here: scipy.stats takes most of a second to import, and only --compare-policy needs it
     from scipy import stats
 
     n = count_a + count_b
-    return 1.0 if n == 0 else float(stats.binomtest(count_a, n, time_a / (time_a + time_b)).pvalue)
+    if n == 0:
+        return 1.0
+    share = time_a / (time_a + time_b)
+    if overdispersion <= 1.0:
+        return float(stats.binomtest(count_a, n, share).pvalue)
+    z = (count_a - n * share) / np.sqrt(overdispersion * n * share * (1.0 - share))
+    return float(2.0 * stats.norm.sf(abs(z)))
 
 
 def compare_games(a: dict, b: dict, alpha: float = 0.01) -> dict:
-    """Whether two games agree: goals for and against and home touches per unit time (Poisson rate tests)
-    and the home share of goals (their Wilson intervals overlap)."""
+    """Whether two games agree: goals for and against and home touches per unit time (rate tests) and the home
+    share of goals (their Wilson intervals overlap). Where b pools several games (`per_game`), their own spread
+    sets each test's overdispersion: on the robot table four 300 s games of one policy scored 13 to 38 goals, six
+    times the spread of Poisson counts, and a Poisson test would call a fifth game from the same loop different."""
     ta, tb = a["duration_s"], b["duration_s"]
-    goals_p = _rate_test(a["goals_home"], b["goals_home"], ta, tb)
-    against_p = _rate_test(a["goals_away"], b["goals_away"], ta, tb)
-    touches_p = _rate_test(a["touches_home"], b["touches_home"], ta, tb)
+    games = b.get("per_game") or []
+    durations = [g["duration_s"] for g in games]
+    spread = {key: dispersion([g[key] for g in games], durations) for key in ("goals_home", "goals_away", "touches_home")}
+    goals_p = _rate_test(a["goals_home"], b["goals_home"], ta, tb, spread["goals_home"])
+    against_p = _rate_test(a["goals_away"], b["goals_away"], ta, tb, spread["goals_away"])
+    touches_p = _rate_test(a["touches_home"], b["touches_home"], ta, tb, spread["touches_home"])
     ci_a, ci_b = a.get("home_goal_share_ci95"), b.get("home_goal_share_ci95")
     share_overlap = True if not (ci_a and ci_b) else (ci_a[0] <= ci_b[1] and ci_b[0] <= ci_a[1])
     return {
@@ -183,7 +206,11 @@ def compare_games(a: dict, b: dict, alpha: float = 0.01) -> dict:
         "away_goals_a": a["goals_away"], "away_goals_b": b["goals_away"],
         "home_touches_a": a["touches_home"], "home_touches_b": b["touches_home"],
         "duration_a_s": ta, "duration_b_s": tb,
+        "overdispersion": spread,
         "home_goals_p_value": goals_p, "away_goals_p_value": against_p, "home_touches_p_value": touches_p,
+        "poisson_p_values": {"home_goals": _rate_test(a["goals_home"], b["goals_home"], ta, tb),
+                             "away_goals": _rate_test(a["goals_away"], b["goals_away"], ta, tb),
+                             "home_touches": _rate_test(a["touches_home"], b["touches_home"], ta, tb)},
         "home_share_ci_overlap": share_overlap,
         "consistent": goals_p > alpha and against_p > alpha and touches_p > alpha and share_overlap,
     }
