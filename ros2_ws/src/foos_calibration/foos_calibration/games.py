@@ -402,7 +402,7 @@ def _measure(options, rng, sim, camera_delay, t, ball, joint_p, joint_v, command
         slide, options.slide_velocity_noise, options.rotate_velocity_noise)
     # A camera latency: the stamp is later than the capture (the encoders' stamps stay the reference clock).
     return GameRecording(frames[seen] + camera_delay, detections, joint_t, position, velocity, command_t, commands, serves, goals,
-                         sim.figure_touches())
+                         sim.figure_touches(), camera_only=options.camera_only)
 
 
 def write_game_bag(recording: GameRecording, path: str | Path) -> None:
@@ -447,7 +447,6 @@ def generate_game(path: str | Path, effects: Sequence[dict], options: GameOption
     if Path(path).exists():
         raise GameError(f"{path} exists already; choose another name or delete it")
     recording = play(effects, options, params, style)
-    recording.camera_only = options.camera_only
     write_game_bag(recording, path)
     return recording
 

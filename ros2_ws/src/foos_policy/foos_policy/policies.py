@@ -148,11 +148,7 @@ class ModelPolicy(Policy):
             self.action_mode = action_mode_of(self.model.action_space.high)
         except ValueError as exc:
             raise PolicyError(f"{self.path}: {exc}") from None
-        self.targets = None
-        if self.action_mode == "position":
-            params = load_params() if params is None else params
-            limits = params_command_limits(params) if command_limits is None else command_limits
-            self.targets = PositionTargets(params, limits)
+        self.targets = PositionTargets(*_table(params, command_limits)) if self.action_mode == "position" else None
 
     def predict(self, obs):
         obs = np.asarray(obs, np.float32)
@@ -170,7 +166,12 @@ def make_policy(spec: str, params: Optional[dict] = None, command_limits=None, s
     if spec == "random":
         return RandomPolicy(seed)
     if spec == "scripted":
-        params = load_params() if params is None else params
-        limits = params_command_limits(params) if command_limits is None else command_limits
-        return ScriptedBaseline(params, limits)
+        return ScriptedBaseline(*_table(params, command_limits))
     return ModelPolicy(spec, params, command_limits)
+
+
+def _table(params: Optional[dict], command_limits) -> tuple[dict, np.ndarray]:
+    """The table a controller plays (the nominal one by default) and its drives' command limits (those of the table
+    by default)."""
+    params = load_params() if params is None else params
+    return params, params_command_limits(params) if command_limits is None else command_limits

@@ -395,10 +395,8 @@ class TableSimulation:
         for i in range(n):
             if self._arrivals:
                 self._deliver()
-                if self._arrivals and self._arrivals[0][0] < self.data.time + h - ARRIVAL_SNAP:
-                    self._split_step(h, self._fast_part)
-                else:
-                    self._fast_part(h)
+            if self._arrivals and self._arrivals[0][0] < self.data.time + h - ARRIVAL_SNAP:
+                self._split_step(h, self._fast_part)  # a command arrives within this step
             else:
                 self._fast_part(h)
             # Every other step (4 ms; a shot into a goal spends 16 ms in the pocket before it could come out).
