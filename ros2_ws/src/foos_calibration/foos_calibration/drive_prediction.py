@@ -38,6 +38,16 @@ def nearest_samples(t: np.ndarray, times: np.ndarray) -> np.ndarray:
     return np.where(times - t[after - 1] < t[after] - times, after - 1, after)
 
 
+def _commands_at(t0: np.ndarray, due_t: np.ndarray, goals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per start and drive lane: (lane columns (1, D), k (n, D): the next command to fall due after t0, the goal acting
+    at t0 (n, D), due_t padded with a row of inf: k == m, no command left)."""
+    d = due_t.shape[1]
+    columns = np.arange(d)[None, :]
+    k = np.stack([np.searchsorted(due_t[:, j], t0 + _TIME_EPS, side="right") for j in range(d)], axis=1)
+    goal = np.where(k > 0, goals[np.maximum(k - 1, 0), columns], 0.0)
+    return columns, k, goal, np.vstack([due_t, np.full((1, d), np.inf)])
+
+
 def profile_positions(t0: np.ndarray, position: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray,
                       due_t: np.ndarray, goals: np.ndarray, accel: np.ndarray, jerk: np.ndarray,
                       ends: np.ndarray, travel: np.ndarray) -> np.ndarray:
@@ -57,11 +67,7 @@ def profile_positions(t0: np.ndarray, position: np.ndarray, velocity: np.ndarray
     accel = np.broadcast_to(np.asarray(accel, dtype=float), (n, d))
     jerk = np.broadcast_to(np.asarray(jerk, dtype=float), (n, d))
     stop = np.broadcast_to(np.asarray(travel, dtype=float), (n, d))
-    columns = np.arange(d)[None, :]
-    # Per lane: the next command to fall due after t0, and the goal acting at t0.
-    k = np.stack([np.searchsorted(due_t[:, j], t0 + _TIME_EPS, side="right") for j in range(d)], axis=1)
-    goal = np.where(k > 0, goals[np.maximum(k - 1, 0), columns], 0.0)
-    padded = np.vstack([due_t, np.full((1, d), np.inf)])  # k == m: no command left
+    columns, k, goal, padded = _commands_at(t0, due_t, goals)
     time = np.repeat(t0[:, None], d, axis=1)
     ends = np.asarray(ends, dtype=float)
     out = np.full((n, ends.shape[1], d), np.nan)
@@ -104,11 +110,8 @@ def continuous_servo_positions(t0: np.ndarray, position: np.ndarray, velocity: n
     clip_error = np.broadcast_to(servo.force_limit / servo.gain, (n, d))  # F / kv
     rate = np.broadcast_to(np.asarray(rate, dtype=float), (n, d))
     stop = np.broadcast_to(np.asarray(travel, dtype=float), (n, d))
-    columns = np.arange(d)[None, :]
-    k = np.stack([np.searchsorted(due_t[:, j], t0 + _TIME_EPS, side="right") for j in range(d)], axis=1)
-    goal = np.where(k > 0, goals[np.maximum(k - 1, 0), columns], 0.0)
+    columns, k, goal, padded = _commands_at(t0, due_t, goals)
     y = np.where(np.isinf(rate), goal, y)
-    padded = np.vstack([due_t, np.full((1, d), np.inf)])
     time = np.repeat(t0[:, None], d, axis=1)
     ends = np.asarray(ends, dtype=float)
     out = np.full((n, ends.shape[1], d), np.nan)
