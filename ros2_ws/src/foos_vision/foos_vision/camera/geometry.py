@@ -378,21 +378,26 @@ def _dlt(world: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     return vt[-1].reshape(3, 4)
 
 
+def _detector_parameters():
+    """The ArUco detector's settings, for the whole frame and (with rescaled perimeter limits) for the crops."""
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+    # Far tags in an oblique view are ~3 px per cell and their borders blur: tolerate border bit
+    # errors and correct as many data bits as the dictionary allows. A misread id cannot do harm:
+    # tags that disagree with the rest are left out of the fit.
+    params.maxErroneousBitsInBorderRate = 0.6
+    params.errorCorrectionRate = 1.0
+    return params
+
+
 class TagLocator:
     """Detects the layout's ArUco tags and returns their centres in undistorted pixels."""
 
     def __init__(self, layout: MarkerLayout, lens: Lens):
         self.layout = layout
         self.lens = lens
-        params = cv2.aruco.DetectorParameters()
-        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
-        # Far tags in an oblique view are ~3 px per cell and their borders blur: tolerate border bit
-        # errors and correct as many data bits as the dictionary allows. A misread id cannot do harm:
-        # tags that disagree with the rest are left out of the fit.
-        params.maxErroneousBitsInBorderRate = 0.6
-        params.errorCorrectionRate = 1.0
-        self.params = params
-        self.detector = cv2.aruco.ArucoDetector(layout.aruco_dictionary(), params)
+        self.params = _detector_parameters()
+        self.detector = cv2.aruco.ArucoDetector(layout.aruco_dictionary(), self.params)
         self._crop_detectors: dict[tuple[int, int], cv2.aruco.ArucoDetector] = {}  # (frame's side, crop's)
         self._last: dict[int, np.ndarray] = {}  # raw corners by id of the last detection in the whole frame
         self._whole_ids: list[int] = []  # the layout's tags it found, looked for in crops until TAG_WHOLE_EVERY
@@ -444,9 +449,7 @@ class TagLocator:
         are the whole frame's in pixels."""
         key = (frame_side, crop_side)
         if key not in self._crop_detectors:
-            params = cv2.aruco.DetectorParameters()
-            for name in ("cornerRefinementMethod", "maxErroneousBitsInBorderRate", "errorCorrectionRate"):
-                setattr(params, name, getattr(self.params, name))
+            params = _detector_parameters()
             params.minMarkerPerimeterRate = self.params.minMarkerPerimeterRate * frame_side / crop_side
             params.maxMarkerPerimeterRate = self.params.maxMarkerPerimeterRate * frame_side / crop_side
             self._crop_detectors[key] = cv2.aruco.ArucoDetector(self.layout.aruco_dictionary(), params)
