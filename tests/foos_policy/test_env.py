@@ -177,6 +177,22 @@ def test_skill_reward_is_potential_based_progress_plus_touch_and_goals():
     assert r(0.0, 0.1, None, np.full(8, 20.0), half) == r(0.0, 0.1, None, np.zeros(8), half)
 
 
+def test_an_own_goal_penalty_changes_only_the_conceded_goal():
+    from foos_policy.tasks import make_reward
+
+    r = make_reward("skill", own_goal_penalty=25.0)
+    half = 0.6
+    assert r(0.0, 0.0, "away", np.zeros(8), half) == pytest.approx(-25.0)
+    assert r(0.0, 0.0, "home", np.zeros(8), half) == pytest.approx(10.0)
+    assert r(0.0, 0.1, None, np.zeros(8), half) == pytest.approx(0.5)
+    env = FoosballEnv("hardened", "scripted", reward="skill", own_goal_penalty=25.0)
+    assert env.reward_fn.own_goal_penalty == 25.0
+    with pytest.raises(ValueError, match="skill reward only"):
+        make_reward("paper", own_goal_penalty=25.0)
+    with pytest.raises(ValueError, match="at least 0"):
+        make_reward("skill", own_goal_penalty=-1.0)
+
+
 def test_the_skill_env_pays_the_first_touch_once():
     env = FoosballEnv("paper", "none", reward="skill")
     env.reset(seed=0)

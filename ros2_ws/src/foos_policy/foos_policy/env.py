@@ -45,6 +45,7 @@ class EnvConfig:
     stagnant_steps: int = 50            # control steps (1 s at 50 Hz) of stagnation that end an episode
     params_file: Optional[str] = None
     reward: str = "paper"               # paper | skill (foos_policy.tasks.REWARDS)
+    own_goal_penalty: Optional[float] = None  # the skill reward's, when not its default
     view: str = "camera"                # camera | instant: how the home policy sees the ball (camera_view)
     opponent_view: str = "camera"       # camera | instant: the same for the away team
     camera_latency: float = CAMERA_LATENCY    # s
@@ -98,7 +99,7 @@ class FoosballEnv(gym.Env):
         self.config = cfg
         self.sim = TableSimulation(cfg.params_file)
         self.reset_task = make_reset(cfg.reset)
-        self.reward_fn = make_reward(cfg.reward)
+        self.reward_fn = make_reward(cfg.reward, cfg.own_goal_penalty)
         if not cfg.control_rate > 0 or 1.0 / cfg.control_rate < self.sim.timestep:
             raise ValueError(f"control_rate {cfg.control_rate} Hz is not within the {1 / self.sim.timestep:.0f} Hz physics")
         self.dt = 1.0 / cfg.control_rate

@@ -132,11 +132,17 @@ class SkillReward:
         return float(reward)
 
 
-def make_reward(name: str):
+def make_reward(name: str, own_goal_penalty: Optional[float] = None):
+    """The named reward; `own_goal_penalty` overrides the skill reward's (the paper's is its goal reward)."""
+    if own_goal_penalty is not None:
+        if name != "skill":
+            raise ValueError(f"an own-goal penalty applies to the skill reward only, not `{name}`")
+        if not own_goal_penalty >= 0:
+            raise ValueError(f"the own-goal penalty must be at least 0, got {own_goal_penalty}")
     if name == "paper":
         return PaperReward()
     if name == "skill":
-        return SkillReward()
+        return SkillReward() if own_goal_penalty is None else SkillReward(own_goal_penalty=float(own_goal_penalty))
     raise ValueError(f"unknown reward `{name}` (expected one of {REWARDS})")
 
 

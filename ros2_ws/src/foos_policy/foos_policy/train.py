@@ -55,6 +55,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--reward", choices=REWARDS, default="paper",
                    help="paper: progress + distance shaping + 1000 per goal; skill: signed progress, a first-touch bonus "
                         "and 10 per goal, own goals -10 (default paper)")
+    p.add_argument("--own-goal-penalty", type=float, default=None, metavar="R",
+                   help="the skill reward's penalty for a goal conceded (default 10, as a goal scored); higher trades "
+                        "shots for safety")
     p.add_argument("--curriculum", action="store_true",
                    help="train first on a resting ball with still away rods (15 %% of the budget), then the task's serve "
                         "with still away rods (15 %%), then the task itself")
@@ -89,6 +92,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     if args.n_envs <= 0 or args.train_freq <= 0 or args.gradient_steps <= 0:
         p.error("--n-envs, --train-freq and --gradient-steps must be positive")
     check_task_arguments(p, args)
+    if args.own_goal_penalty is not None and (args.reward != "skill" or not args.own_goal_penalty >= 0):
+        p.error("--own-goal-penalty needs --reward skill and a value of at least 0")
     return args
 
 
@@ -181,7 +186,8 @@ def train(args) -> dict:
 
     def env_factory(rank: int):
         def make():
-            env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward, opponent_delay=args.opponent_delay,
+            env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward, own_goal_penalty=args.own_goal_penalty,
+                           opponent_delay=args.opponent_delay,
                            view=args.view, opponent_view=args.opponent_view, params_file=args.params_file, action=args.action)
             env.reset(seed=args.seed * 1000 + rank)
             return env
@@ -213,7 +219,7 @@ def train(args) -> dict:
         "name": name, "algo": args.algo, "reset": args.reset, "opponent": args.opponent, "seed": args.seed,
         "steps_requested": args.steps, "time_limit_min": args.time_limit, "steps_done": int(model.num_timesteps),
         "interrupted": interrupted, "wall_s": round(wall, 1), "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 1),
-        "learner": args.learner, "reward": args.reward, "curriculum": args.curriculum,
+        "learner": args.learner, "reward": args.reward, "own_goal_penalty": args.own_goal_penalty, "curriculum": args.curriculum,
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
         "params_file": args.params_file, "action": args.action,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
