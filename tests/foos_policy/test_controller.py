@@ -43,6 +43,17 @@ def test_stale_or_missing_inputs_hold_the_rods(sim):
     assert stats["n"] == 1 and stats["median_ms"] >= 0
 
 
+def test_a_camera_loops_late_ball_state_still_drives_the_rods(sim):
+    """By default a /ball/state 0.12 s old (a 30 fps frame plus 80 ms of detection) is used, not held on."""
+    c = PolicyController(make_policy("random"), "home", sim.command_limits)
+    c.joints = joint_sample(1.0, JOINT_NAMES, np.zeros(16), np.zeros(16))
+    c.ball = ball_sample(0.88, (0, 0, 0.0175), (0, 0, 0))
+    command, reason = c.step(1.0)
+    assert reason is None and command.any()
+    command, reason = c.step(1.2)
+    assert "/ball/state is 0.32 s old" in reason and not command.any()
+
+
 def test_the_away_team_plays_the_mirrored_game(sim):
     """Scripted home on a state and scripted away on the table turned by 180 degrees give opposite commands."""
     rng = np.random.default_rng(1)

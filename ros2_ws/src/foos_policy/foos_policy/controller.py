@@ -65,11 +65,18 @@ def ball_sample(stamp: float, position: Sequence[float], velocity: Sequence[floa
     return BallSample(stamp, p, v)
 
 
+# A camera loop's /ball/state is stamped with the frame's time, so it arrives already old: a 30-60 fps camera
+# plus 20-80 ms from image to detection (the simulated camera loop under load) delivers states 0.05-0.12 s old,
+# and 0.1 s held the rods 8 times in a 53 s tracker-fed game. 0.25 s lets two frames be missed before the rods
+# stop; a ball the tracker has lost for longer holds them.
+STALE_AFTER_S = 0.25
+
+
 class PolicyController:
     """One team's controller. `step(now)` returns (command, reason): the command to publish, and why
     the rods are held (None when the policy acted)."""
 
-    def __init__(self, policy: Policy, team: str, command_limits, stale_after: float = 0.1):
+    def __init__(self, policy: Policy, team: str, command_limits, stale_after: float = STALE_AFTER_S):
         if team not in TEAMS:
             raise ValueError(f"team must be one of {TEAMS}, got `{team}`")
         self.policy = policy

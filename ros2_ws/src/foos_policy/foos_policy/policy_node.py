@@ -26,7 +26,7 @@ from foos_core.stamps import stamp_to_seconds
 from foos_core.table_params import load_params
 from foos_sim import command_limits
 
-from .controller import PolicyController, StateError, ball_sample, joint_sample
+from .controller import STALE_AFTER_S, PolicyController, StateError, ball_sample, joint_sample
 from .policies import PolicyError, make_policy
 
 STOP_ACK_TIMEOUT_S = 2.0  # Fast DDS acknowledged it within 0.01-1.05 s here
@@ -34,7 +34,7 @@ PARAMETERS = (
     ("policy", "sac_hardened_scripted_s0", "shipped policy name, PATH.zip, or zero | random | scripted"),
     ("team", "home", "team to play: home, or away (observations and commands are mirrored)"),
     ("control_rate", 50.0, "Hz of commands (the policies were trained at 50 Hz)"),
-    ("stale_timeout", 0.1, "s; older /ball/state or /joint_states hold the rods"),
+    ("stale_timeout", STALE_AFTER_S, "s; older /ball/state or /joint_states (by their stamps) hold the rods"),
     ("latency_period", 5.0, "s between inference-latency reports"),
     ("params_file", "", "table parameter file for the drive limits; empty = nominal table"),
     ("seed", 0, "seed of the random baseline"),
