@@ -96,6 +96,25 @@ def test_evaluate_transfer_pairs_the_same_episodes_on_other_tables(run_cli, tmp_
     assert "paired, same episodes" in proc.stdout and str(SERVO_PARAMS_FILE) in proc.stdout
 
 
+@pytest.mark.timeout(300)
+def test_evaluate_splits_the_own_goals_by_the_last_touch(run_cli, tmp_path):
+    """Random actions on the robot table concede own goals off their own rods: every goal against is put down to
+    the team that touched the ball last, and those off the home rods to the home rod nearest the touch."""
+    from foos_core.table_params import ROBOT_PARAMS_FILE
+
+    target = tmp_path / "random.json"
+    proc = run_cli("evaluate", "--policy", "random", "--reset", "hardened", "--opponent", "scripted", "--episodes", "10",
+                   "--seed", "7", "--params-file", str(ROBOT_PARAMS_FILE), "--out", str(target), "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(target.read_text())
+    by_touch, by_rod = summary["own_goals_by_last_touch"], summary["own_goals_by_home_rod"]
+    assert summary["own_goal_rate"] > 0 and by_touch["home"] > 0
+    assert sum(by_touch.values()) == pytest.approx(summary["own_goal_rate"])
+    assert sum(by_rod.values()) == pytest.approx(by_touch["home"])
+    assert set(by_rod) <= {"home_goalie", "home_defence", "home_midfield", "home_attack"}
+    assert "own goals by the last touch: home" in proc.stdout
+
+
 def test_paired_difference_resamples_whole_pairs():
     from foos_policy.evaluation import paired_difference
 

@@ -64,6 +64,8 @@ class EpisodeStats:
     touches_home: int = 0
     touches_away: int = 0
     last_home_touch_y: Optional[float] = None
+    last_home_touch_rod: Optional[str] = None  # the home rod nearest the ball when home last began touching it
+    last_toucher: Optional[str] = None  # home | away | both (began in the same control step) | None
     final_y: float = 0.0
     task: str = ""                      # reset/opponent the episode was played on
 
@@ -83,6 +85,9 @@ class EpisodeStats:
             "goal_after_touch": float(self.goal == "home" and touched),
             "goal_without_touch": float(self.goal == "home" and not touched),
             "progress_after_touch": float(progress),
+            # who touched the ball last before a goal against: the policy's own rods, or the opponent's shot
+            "own_goal_last_touch": (self.last_toucher or "none") if self.goal == "away" else "",
+            "own_goal_home_rod": (self.last_home_touch_rod or "") if self.goal == "away" and self.last_toucher == "home" else "",
             "task": self.task,
         }
 
@@ -123,6 +128,7 @@ class FoosballEnv(gym.Env):
 
         self.stats = EpisodeStats()
         self._stagnant_count = 0
+        self._home_rod_y = {name: float(rod["y"]) for name, rod in self.sim.params["rods"]["layout"].items() if name.startswith("home_")}
 
     # --- gymnasium API --------------------------------------------------------------------------
     def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
@@ -211,7 +217,10 @@ class FoosballEnv(gym.Env):
         self.stats.touches_home += home - home_before
         self.stats.touches_away += away - away_before
         if home > home_before:
-            self.stats.last_home_touch_y = float(self.sim.last_touch_ball_position("home")[1])
+            y = self.stats.last_home_touch_y = float(self.sim.last_touch_ball_position("home")[1])
+            self.stats.last_home_touch_rod = min(self._home_rod_y, key=lambda rod: abs(self._home_rod_y[rod] - y))
+        if home > home_before or away > away_before:
+            self.stats.last_toucher = "both" if (home > home_before and away > away_before) else ("home" if home > home_before else "away")
         return goal
 
 

@@ -24,7 +24,9 @@ Evaluate a policy for the home team in-process on a fixed set of episode seeds a
 The summary holds win_rate, own_goal_rate, mean_length (steps of 20 ms), touches (home rod-ball touches
 per episode), goals_after_touch, goals_without_touch and no_touch_goal_share = the share of home goals
 scored with no home touch at all (the serve's inflation), each with a 95 % interval (Wilson for rates,
-normal for means). Episodes use seeds SEED*100003 + i, so two policies with the same --seed and
+normal for means); own_goals_by_last_touch splits the own goals (goals against) by the team that touched
+the ball last (home: off the policy's own rods, then own_goals_by_home_rod says which; away: the opponent's
+shot or clearance; none: untouched since the serve). Episodes use seeds SEED*100003 + i, so two policies with the same --seed and
 --episodes see the same serves.
 
 --transfer-to FILE... plays the same episodes on other tables and prints, for each, the paired change of
@@ -112,6 +114,10 @@ def main(argv=None) -> int:
           f"[{summary['win_rate_ci95'][0]:.3f}, {summary['win_rate_ci95'][1]:.3f}]  own goal {summary['own_goal_rate']:.3f}  "
           f"length {summary['mean_length']:.1f}  touches {summary['touches']:.2f}  "
           f"no-touch goal share {'n/a' if share is None else f'{share:.3f}'}  ({summary['episodes']} episodes)")
+    if summary["own_goal_rate"] and "own_goals_by_last_touch" in summary:
+        by_touch = ", ".join(f"{who} {rate:.2f}" for who, rate in summary["own_goals_by_last_touch"].items() if rate)
+        by_rod = ", ".join(f"{rod} {rate:.2f}" for rod, rate in summary["own_goals_by_home_rod"].items())
+        print(f"  own goals by the last touch: {by_touch}" + (f" (home rods: {by_rod})" if by_rod else ""))
     for row in summary.get("transfer", []):
         dw, dl = row["win_difference_ci95"], row["own_goal_difference_ci95"]
         print(f"  on {row['params_file']} ({row['physics']}): win {row['win_rate']:.3f}, change {row['win_difference']:+.3f} "

@@ -112,6 +112,12 @@ def summarize(results: list[dict], extra: Optional[dict] = None) -> dict:
         "no_touch_goal_share_ci95": wilson_interval(no_touch, int(wins)) if wins else None,
         "progress_after_touch": progress[0], "progress_after_touch_ci95": progress[1:],
     }
+    # Goals against by who touched the ball last (results written before 28 Nov lack the column)
+    last = [r.get("own_goal_last_touch", "") for r in results if r.get("lose")]
+    if all(last):
+        summary["own_goals_by_last_touch"] = {who: sum(w == who for w in last) / n for who in ("home", "away", "both", "none")}
+        rods = [r.get("own_goal_home_rod", "") for r in results if r.get("lose") and r.get("own_goal_last_touch") == "home"]
+        summary["own_goals_by_home_rod"] = {rod: rods.count(rod) / n for rod in sorted(set(rods))}
     if extra:
         summary.update(extra)
     return _plain(summary)
