@@ -100,6 +100,17 @@ def test_a_team_in_one_colour_is_not_the_ball():
     assert len(heads) >= 10 and min(c.team_balls for c in heads) > TEAM_BALLS, heads
 
 
+def test_the_felt_is_found_under_a_logo_in_the_middle():
+    # An overhead view puts the centre circle, its line and a printed logo in the image's middle: most of the middle
+    # tenth is not felt. The felt is the commonest colour around it, not a mix of felt and logo.
+    frame = drawn_still(ball=(1200, 500))
+    cv2.ellipse(frame, (960, 540), (200, 120), 0, 0, 360, (225, 230, 235), -1)
+    finder = StillBallFinder()
+    field, ball = finder.ball(frame)
+    assert field is not None and 0.4 < field.share < 0.7 and abs(field.ball_radius_px - 20.3) < 2.0, field
+    assert ball is not None and math.hypot(ball.u - 1200, ball.v - 500) < 3.0, ball
+
+
 def test_no_felt_no_field():
     field, candidates = StillBallFinder().find(np.random.default_rng(1).integers(0, 255, (480, 640, 3), np.uint8))
     assert field is None and candidates == []

@@ -94,10 +94,20 @@ class StillBallFinder:
 
     def _felt(self, lab: np.ndarray, scale: float) -> tuple[Optional[FeltField], Optional[np.ndarray]]:
         h, w = lab.shape[:2]
-        # The table is in the middle of the picture, and the felt is most of the table: its colour is the median of
-        # the middle tenth of the image, refined on the pixels near it.
-        middle = lab[2 * h // 5:3 * h // 5, 2 * w // 5:3 * w // 5].reshape(-1, 3).astype(np.float32)
-        l0, a0, b0 = (float(x) for x in np.median(middle, axis=0))
+        # The table is in the middle of the picture, and the felt is most of the table: its colour is the commonest
+        # chroma (a, b) of the middle third of the image, in bins of FELT_CHROMA_TOL, refined on the pixels near it.
+        # Not the median: where the centre circle, its line and a logo fill the middle (an overhead camera), the
+        # median is a mix of felt and white that is neither.
+        middle = lab[h // 3:2 * h // 3, w // 3:2 * w // 3].reshape(-1, 3).astype(np.float32)
+        bins = (middle[:, 1:] // FELT_CHROMA_TOL).astype(int)
+        side = 256 // int(FELT_CHROMA_TOL) + 1
+        counts = np.bincount(bins[:, 0] * side + bins[:, 1], minlength=side * side).reshape(side, side)
+        counts = cv2.boxFilter(counts.astype(np.float32), -1, (3, 3), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        ka, kb = np.unravel_index(int(np.argmax(counts)), counts.shape)
+        a0, b0 = (ka + 0.5) * FELT_CHROMA_TOL, (kb + 0.5) * FELT_CHROMA_TOL
+        chroma_near = ((np.abs(middle[:, 1] - a0) <= 1.5 * FELT_CHROMA_TOL)
+                       & (np.abs(middle[:, 2] - b0) <= 1.5 * FELT_CHROMA_TOL))
+        l0, a0, b0 = (float(x) for x in np.median(middle[chroma_near], axis=0))
         near = ((np.abs(middle[:, 1] - a0) <= FELT_CHROMA_TOL) & (np.abs(middle[:, 2] - b0) <= FELT_CHROMA_TOL)
                 & (np.abs(middle[:, 0] - l0) <= FELT_LIGHT_TOL))
         if np.count_nonzero(near) >= 0.2 * len(middle):
