@@ -111,6 +111,17 @@ def test_the_felt_is_found_under_a_logo_in_the_middle():
     assert ball is not None and math.hypot(ball.u - 1200, ball.v - 500) < 3.0, ball
 
 
+def test_a_ball_on_the_lit_end_of_the_felt_is_searched():
+    # A lamp over one end washes the felt's colour out there: the felt found stops short of the field's end, and the
+    # ball lying on that end is within a ball's width of it.
+    frame = drawn_still(ball=None)
+    cv2.rectangle(frame, (260, 145), (1660, 190), (175, 215, 170), -1)
+    cv2.circle(frame, (1200, 170), 20, (235, 235, 235), -1, cv2.LINE_AA)
+    field, ball = StillBallFinder().ball(cv2.GaussianBlur(frame, (5, 5), 1.0))
+    assert field is not None and field.outline[:, 1].min() > 185, field.outline[:, 1].min()
+    assert ball is not None and math.hypot(ball.u - 1200, ball.v - 170) < 3.0, ball
+
+
 def test_no_felt_no_field():
     field, candidates = StillBallFinder().find(np.random.default_rng(1).integers(0, 255, (480, 640, 3), np.uint8))
     assert field is None and candidates == []

@@ -43,6 +43,7 @@ FELT_CHROMA_TOL = 6.0  # Lab a/b levels around the felt's mode that are still fe
 FELT_LIGHT_TOL = 45.0  # L levels: the felt's light falls off toward the walls
 MIN_FELT_FILL = 0.5  # of the felt's closed stretch that is felt-coloured
 MIN_FIELD_SHARE = 0.08  # of the image: less, and the felt found is not a table's playing field
+FIELD_MARGIN = 2.0  # ball radii: the ball is searched this far past the felt found (its lit or shaded ends and walls)
 SCALES = (0.75, 0.9)  # of the predicted radius: the lit part of a ball (its shaded underside is the felt's light)
 RING = (1.3, 1.9)  # radii of the ring of surroundings, in disc radii
 MIN_PEAK = 6.0  # L levels: the disc's light above the ring's, at least
@@ -159,8 +160,12 @@ class StillBallFinder:
         lighter = _lighter_than_felt(small, lab, r)
         contrast, radius = _disc_filter(lighter, r)
         size = max(3, int(r) | 1)
+        # The felt's colour changes where a lamp lights or a wall shades its ends: the felt found can stop short of
+        # the field's edge by a ball's width, and a ball there is still on the field.
+        grow = int(2 * FIELD_MARGIN * r) | 1
+        searched = cv2.dilate(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
         peaks = ((contrast == cv2.dilate(contrast, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))))
-                 & (contrast >= MIN_PEAK) & (region > 0))
+                 & (contrast >= MIN_PEAK) & (searched > 0))
         ys, xs = np.nonzero(peaks)
         order = np.argsort(-contrast[ys, xs])[:MAX_PEAKS]
         light = cv2.GaussianBlur(lab[..., 0].astype(np.float32), (0, 0), 1.0)
