@@ -368,6 +368,9 @@ def main(argv=None) -> None:
                         "or both (default)")
     p.add_argument("--real", metavar="DIR",
                    help="score real footage instead of renders: a clip folder, or a folder of them (see real_bench)")
+    p.add_argument("--stills", action="store_true",
+                   help="with --real: score every frame alone as a single still (the field found in it, no tags, "
+                        "corners or time order), a video or a clip with markers too")
     p.add_argument("--field-auto", type=int, metavar="N",
                    help="--field-corners auto against the truth: N random render cases (foos_vision.field_bench), "
                         "from case --field-auto-from")
@@ -384,8 +387,10 @@ def main(argv=None) -> None:
     if args.field_auto:
         run_cli_body(lambda: run_field_auto(args.field_auto, args.field_auto_from))
         return
+    if args.stills and not args.real:
+        p.error("--stills goes with --real DIR")
     if args.real:
-        run_cli_body(lambda: run_real(Path(args.real), args.params_file))
+        run_cli_body(lambda: run_real(Path(args.real), args.params_file, as_stills=args.stills))
         return
     cases = list(SHOT_CASES if args.shots else CASES)
     if args.cases:

@@ -4,7 +4,8 @@ DIR is a clip, or a folder of clips (one per sub-folder). A clip is a folder hol
 - footage: one video file, or frames (.jpg/.png, in the order of the number in their names);
 - what fixes the field: a markers YAML (the tags' centres, as track_video --markers), or `field_corners.txt`
   (U1,V1,...,U4,V4, as --field-corners). A folder of frames with neither is scored as single stills: each frame
-  alone, the field found in it (still_ball), no time order (a camera that pans and zooms between frames);
+  alone, the field found in it (still_ball), no time order (a camera that pans and zooms between frames).
+  `--stills` scores every clip that way, a video or a clip with markers too;
 - the truth: YOLO labels (`class cx cy w h`, normalised to the image, class 0 = the ball), one `.txt` per frame with
   the frame's name (stills) or its index in the video (`N.txt`, in the clip or in `labels/`); or a visibility list,
   `visible.yaml` in the clip, or the one this package ships for a clip of that name (config/visible_NAME.yaml,
@@ -288,15 +289,16 @@ def find_stills(clip: Clip, params_file: Optional[str] = None) -> tuple[dict[int
     """Per frame, the ball StillBallFinder reports in that frame alone (its best candidate, if clear enough), or none."""
     finder = StillBallFinder(params_file)
     found: dict[int, tuple[float, float]] = {}
-    no_field = 0
+    no_field = frames = 0
     started = time.process_time()
     for k, _, image in _frames_of(clip, DEFAULT_FPS):
         field_, ball = finder.ball(image)
+        frames += 1
         no_field += field_ is None
         if ball is not None:
             found[k] = (ball.u, ball.v)
     elapsed = time.process_time() - started
-    return found, {"fps_track": len(clip.frames) / elapsed, "frames": len(clip.frames), "no_field": no_field}
+    return found, {"fps_track": frames / elapsed, "frames": frames, "no_field": no_field}
 
 
 # --- scoring -------------------------------------------------------------------------------------------------------
@@ -349,13 +351,15 @@ def goal_mouth_note(clip: Clip, info: dict, params_file: Optional[str]) -> Optio
             f"{'in' if inside else 'NOT in'} the {clip.ends_in.replace('_', ' ')} mouth")
 
 
-def run_real(root: Path, params_file: Optional[str] = None, echo=print) -> list[ClipResult]:
+def run_real(root: Path, params_file: Optional[str] = None, echo=print, as_stills: bool = False) -> list[ClipResult]:
+    """A row per clip. as_stills: every clip's frames scored one by one as single stills (the field found in each,
+    no tags, corners or time order), a video or a clip with markers too."""
     cv2.setNumThreads(1)
     clips = find_clips(root)
     echo(REAL_HEADER)
     results = []
     for clip in clips:
-        if clip.stills:
+        if clip.stills or as_stills:
             detections, info = find_stills(clip, params_file)
             mode = "stills, field found"
         else:
@@ -370,7 +374,8 @@ def run_real(root: Path, params_file: Optional[str] = None, echo=print) -> list[
             result.notes.append(f"no field found in {info['no_field']} frames")
         if "colour" in info:
             result.notes.append(f"colour {info['colour']}")
-        note = goal_mouth_note(clip, info, params_file)
+        # Stills have no track to end anywhere.
+        note = None if mode.startswith("stills") else goal_mouth_note(clip, info, params_file)
         if note:
             result.notes.append(note)
         results.append(result)

@@ -11,12 +11,16 @@ rod's highlight or a lit wall is as light in the ring as in the disc, and a dark
 light above the felt counts). Each is scored on what only a ball has all of:
 - its shape: the correlation of its light with a disc of the ball's size in a ring of felt (a line, a streak or a
   lit edge correlates poorly);
-- its outline: the brightness falls off outward all around it (the share of 16 directions with such an edge);
-  a streak has edges on two sides only;
+- its rim: the edges around it (the light falling outward) lie on one circle of about the ball's radius, with the
+  light inside, all around it: the share of 16 sectors of that circle where such an edge is found. A streak, a line, a
+  rod's highlight beside a figure or a lit wall have straight edges, which meet a circle of the ball's size in a few
+  sectors only. The circle's centre is the ball's reported centre: the light's peak lies on the ball's lit top;
 - its colour is its own: figures wear a team's colour, one colour on a dozen bodies across the field, while the
   ball is one ball's area of its colour. A candidate whose (chromatic) colour covers several balls' worth of the
   field is a figure.
-The best candidate is the ball when its score reaches MIN_SCORE; below it the frame has no ball to report.
+The best candidate is the ball when its score reaches MIN_SCORE and it leads every candidate more than a ball's width
+away by MIN_LEAD: two things in a frame that look as much like a ball as each other make the pick a guess, and a
+wrong ball costs more than none (the frame then has no ball to report).
 
 StillBallFinder.find(bgr) returns the field it found (a convex outline and the ball's radius in pixels there) and
 the ball candidates, best first; ball(bgr) the one it would report. The real-footage bench (real_bench) scores it
@@ -39,17 +43,23 @@ FELT_CHROMA_TOL = 6.0  # Lab a/b levels around the felt's mode that are still fe
 FELT_LIGHT_TOL = 45.0  # L levels: the felt's light falls off toward the walls
 MIN_FELT_FILL = 0.5  # of the felt's closed stretch that is felt-coloured
 MIN_FIELD_SHARE = 0.08  # of the image: less, and the felt found is not a table's playing field
+FIELD_MARGIN = 2.0  # ball radii: the ball is searched this far past the felt found (its lit or shaded ends and walls)
 SCALES = (0.75, 0.9)  # of the predicted radius: the lit part of a ball (its shaded underside is the felt's light)
 RING = (1.3, 1.9)  # radii of the ring of surroundings, in disc radii
 MIN_PEAK = 6.0  # L levels: the disc's light above the ring's, at least
 MAX_PEAKS = 60  # the strongest peaks scored per frame
-EDGE_DIRECTIONS = 16  # directions the outline is looked for in
-EDGE_RADII = (0.6, 1.4, 7)  # the outline is searched between these radii (of the predicted radius), in 7 steps
-MIN_EDGE = 4.0  # L levels per px: an edge, falling outward (Sobel of the lightly smoothed L, per px)
+RIM_SECTORS = 16  # sectors of the circle the rim is looked for in
+RIM_RADII = (0.7, 0.85, 1.0, 1.15)  # of the predicted radius: the lit part of a ball, and perspective's +-15 %
+RIM_TOL = 0.25  # of the circle's radius (at least RIM_TOL_PX): an edge this near the circle lies on it
+RIM_TOL_PX = 1.5  # work pixels
+RIM_ANGLE = 30.0  # degrees: an edge on the rim faces the centre (the light rises toward it) within this
+RIM_SHIFT = 0.6  # of the predicted radius: the circle's centre is searched this far from the light's peak
+MIN_EDGE = 4.0  # L levels per px: an edge (Sobel of the lightly smoothed L, per px)
 CHROMATIC = 20.0  # Lab a/b levels from grey: a colour (a team's), not white, grey or black
 TEAM_TOL = 8  # Lab a/b levels: the same colour
 TEAM_BALLS = 4.0  # a colour covering this many balls' areas of the field is half way to a team's (score halved)
 MIN_SCORE = 0.6  # below this the best candidate is not reported: nothing in the frame is clearly a ball
+MIN_LEAD = 0.1  # the best's score over the next best's more than a ball's width away: less, and the pick is a guess
 
 
 @dataclass
@@ -67,7 +77,7 @@ class StillCandidate:
     radius: float  # px, the disc's radius that answered best, full frame
     contrast: float  # L levels: the disc's light above the felt, minus the ring's
     shape: float  # correlation of the light with a disc in a ring, -1..1
-    outline: float  # share of the directions with an edge falling outward, 0..1
+    rim: float  # share of the sectors of a circle of the ball's size with an edge on it, light inside, 0..1
     team_balls: float  # balls' areas of the field in this candidate's colour (0: not a chromatic colour)
     score: float
 
@@ -85,10 +95,20 @@ class StillBallFinder:
 
     def _felt(self, lab: np.ndarray, scale: float) -> tuple[Optional[FeltField], Optional[np.ndarray]]:
         h, w = lab.shape[:2]
-        # The table is in the middle of the picture, and the felt is most of the table: its colour is the median of
-        # the middle tenth of the image, refined on the pixels near it.
-        middle = lab[2 * h // 5:3 * h // 5, 2 * w // 5:3 * w // 5].reshape(-1, 3).astype(np.float32)
-        l0, a0, b0 = (float(x) for x in np.median(middle, axis=0))
+        # The table is in the middle of the picture, and the felt is most of the table: its colour is the commonest
+        # chroma (a, b) of the middle third of the image, in bins of FELT_CHROMA_TOL, refined on the pixels near it.
+        # Not the median: where the centre circle, its line and a logo fill the middle (an overhead camera), the
+        # median is a mix of felt and white that is neither.
+        middle = lab[h // 3:2 * h // 3, w // 3:2 * w // 3].reshape(-1, 3).astype(np.float32)
+        bins = (middle[:, 1:] // FELT_CHROMA_TOL).astype(int)
+        side = 256 // int(FELT_CHROMA_TOL) + 1
+        counts = np.bincount(bins[:, 0] * side + bins[:, 1], minlength=side * side).reshape(side, side)
+        counts = cv2.boxFilter(counts.astype(np.float32), -1, (3, 3), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        ka, kb = np.unravel_index(int(np.argmax(counts)), counts.shape)
+        a0, b0 = (ka + 0.5) * FELT_CHROMA_TOL, (kb + 0.5) * FELT_CHROMA_TOL
+        chroma_near = ((np.abs(middle[:, 1] - a0) <= 1.5 * FELT_CHROMA_TOL)
+                       & (np.abs(middle[:, 2] - b0) <= 1.5 * FELT_CHROMA_TOL))
+        l0, a0, b0 = (float(x) for x in np.median(middle[chroma_near], axis=0))
         near = ((np.abs(middle[:, 1] - a0) <= FELT_CHROMA_TOL) & (np.abs(middle[:, 2] - b0) <= FELT_CHROMA_TOL)
                 & (np.abs(middle[:, 0] - l0) <= FELT_LIGHT_TOL))
         if np.count_nonzero(near) >= 0.2 * len(middle):
@@ -120,10 +140,13 @@ class StillBallFinder:
         return field, region
 
     def ball(self, bgr: np.ndarray) -> tuple[Optional[FeltField], Optional[StillCandidate]]:
-        """The field and the candidate reported as the ball: the best, when its score reaches MIN_SCORE."""
+        """The field and the candidate reported as the ball: the best, when its score reaches MIN_SCORE and leads
+        every other candidate a ball's width or more away by MIN_LEAD (None otherwise)."""
         field, candidates = self.find(bgr)
-        best = candidates[0] if candidates and candidates[0].score >= MIN_SCORE else None
-        return field, best
+        if not candidates or candidates[0].score < MIN_SCORE:
+            return field, None
+        best = candidates[0]
+        return field, best if best.score - _rival_score(best, candidates, field) >= MIN_LEAD else None
 
     def find(self, bgr: np.ndarray) -> tuple[Optional[FeltField], list[StillCandidate]]:
         """The field and the ball candidates in it, best first (empty when no felt is found)."""
@@ -137,8 +160,12 @@ class StillBallFinder:
         lighter = _lighter_than_felt(small, lab, r)
         contrast, radius = _disc_filter(lighter, r)
         size = max(3, int(r) | 1)
+        # The felt's colour changes where a lamp lights or a wall shades its ends: the felt found can stop short of
+        # the field's edge by a ball's width, and a ball there is still on the field.
+        grow = int(2 * FIELD_MARGIN * r) | 1
+        searched = cv2.dilate(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
         peaks = ((contrast == cv2.dilate(contrast, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))))
-                 & (contrast >= MIN_PEAK) & (region > 0))
+                 & (contrast >= MIN_PEAK) & (searched > 0))
         ys, xs = np.nonzero(peaks)
         order = np.argsort(-contrast[ys, xs])[:MAX_PEAKS]
         light = cv2.GaussianBlur(lab[..., 0].astype(np.float32), (0, 0), 1.0)
@@ -151,11 +178,11 @@ class StillBallFinder:
             shape = _disc_correlation(lighter, x, y, rr)
             if shape is None:
                 continue
-            outline = _outline(gx, gy, x, y, r)
+            rim, (cx, cy) = _rim(gx, gy, x, y, r)
             team_balls = _team_balls(lab, team, x, y, rr)
-            score = shape * outline / (1.0 + (team_balls / TEAM_BALLS) ** 2)
-            found.append(StillCandidate(float(x) / scale, float(y) / scale, rr / scale, float(contrast[y, x]), shape,
-                                        outline, team_balls, score))
+            score = shape * rim / (1.0 + (team_balls / TEAM_BALLS) ** 2)
+            found.append(StillCandidate(cx / scale, cy / scale, rr / scale, float(contrast[y, x]), shape, rim,
+                                        team_balls, score))
         found.sort(key=lambda c: -c.score)
         return field, found
 
@@ -216,22 +243,52 @@ def _disc_correlation(lighter: np.ndarray, x: int, y: int, rr: float) -> Optiona
     return float(np.corrcoef(values, ideal)[0, 1])
 
 
-def _outline(gx: np.ndarray, gy: np.ndarray, x: int, y: int, r: float) -> float:
-    """The share of EDGE_DIRECTIONS in which, somewhere between EDGE_RADII, the light falls outward by MIN_EDGE a
-    pixel or more, more than it changes sideways (a ball's rim; partly hidden or blurred, still most of it)."""
-    angles = (np.arange(EDGE_DIRECTIONS) + 0.5) * 2 * math.pi / EDGE_DIRECTIONS
-    radii = np.linspace(EDGE_RADII[0] * r, EDGE_RADII[1] * r, EDGE_RADII[2])
-    ca, sa = np.cos(angles)[:, None], np.sin(angles)[:, None]
-    px = np.rint(x + radii[None, :] * ca).astype(int)
-    py = np.rint(y + radii[None, :] * sa).astype(int)
+def _rim(gx: np.ndarray, gy: np.ndarray, x: int, y: int, r: float) -> tuple[float, tuple[float, float]]:
+    """How round the light around (x, y) is, at the ball's size: the share of RIM_SECTORS sectors of a circle (radius
+    RIM_RADII of r, centre within RIM_SHIFT r of (x, y)) that hold an edge on the circle facing its centre; and
+    that circle's centre. Each edge votes for the centre it would have on a circle of that radius (a Hough
+    transform); a ball's edges agree on one centre, a straight edge's votes spread along a line."""
+    n = int(math.ceil(2.0 * r))
     h, w = gx.shape
-    inside = (px >= 0) & (px < w) & (py >= 0) & (py < h)
-    px, py = np.clip(px, 0, w - 1), np.clip(py, 0, h - 1)
-    gxs, gys = gx[py, px], gy[py, px]
-    inward = -(gxs * ca + gys * sa)
-    sideways = np.abs(-gxs * sa + gys * ca)
-    edge = inside & (inward > sideways) & (inward >= MIN_EDGE)
-    return float(np.mean(edge.any(axis=1)))
+    x0, y0, x1, y1 = max(0, x - n), max(0, y - n), min(w, x + n + 1), min(h, y + n + 1)
+    wx, wy = gx[y0:y1, x0:x1], gy[y0:y1, x0:x1]
+    magnitude = np.hypot(wx, wy)
+    ys, xs = np.nonzero(magnitude >= MIN_EDGE)
+    best: tuple[float, tuple[float, float]] = (0.0, (float(x), float(y)))
+    if len(xs) < 4:
+        return best
+    # The light rises along the gradient: an edge of a light disc has its centre ahead of it.
+    ux, uy = wx[ys, xs] / magnitude[ys, xs], wy[ys, xs] / magnitude[ys, xs]
+    shift = int(math.ceil(RIM_SHIFT * r))
+    ax0, ay0 = max(0, x - x0 - shift), max(0, y - y0 - shift)
+    for factor in RIM_RADII:
+        radius = factor * r
+        vx, vy = np.rint(xs + radius * ux).astype(int), np.rint(ys + radius * uy).astype(int)
+        inside = (vx >= 0) & (vx < x1 - x0) & (vy >= 0) & (vy < y1 - y0)
+        votes = np.bincount(vy[inside] * (x1 - x0) + vx[inside], minlength=(y1 - y0) * (x1 - x0))
+        votes = cv2.boxFilter(votes.reshape(y1 - y0, x1 - x0).astype(np.float32), -1, (3, 3), normalize=False)
+        near = votes[ay0:y - y0 + shift + 1, ax0:x - x0 + shift + 1]
+        if near.size == 0:
+            continue
+        sy, sx = divmod(int(np.argmax(near)), near.shape[1])
+        cx, cy = sx + ax0, sy + ay0
+        dx, dy = cx - xs, cy - ys
+        distance = np.hypot(dx, dy) + 1e-6
+        on = ((np.abs(distance - radius) <= max(RIM_TOL_PX, RIM_TOL * radius))
+              & ((ux * dx + uy * dy) / distance >= math.cos(math.radians(RIM_ANGLE))))
+        angles = np.arctan2(-dy[on], -dx[on])
+        sectors = np.unique(((angles + math.pi) / (2 * math.pi) * RIM_SECTORS).astype(int) % RIM_SECTORS)
+        share = len(sectors) / RIM_SECTORS
+        if share > best[0]:
+            best = (share, (float(cx + x0), float(cy + y0)))
+    return best
+
+
+def _rival_score(best: StillCandidate, candidates: list[StillCandidate], field: Optional[FeltField]) -> float:
+    """The best score among the candidates more than a ball's width from the best (0 when none)."""
+    width = 2.0 * field.ball_radius_px if field is not None else 0.0
+    rivals = [c.score for c in candidates[1:] if math.hypot(c.u - best.u, c.v - best.v) > width]
+    return max(rivals, default=0.0)
 
 
 def _team_colours(lab: np.ndarray, region: np.ndarray, felt_lab, r: float) -> np.ndarray:
