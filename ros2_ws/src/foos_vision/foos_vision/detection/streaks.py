@@ -83,6 +83,9 @@ class _Limits:
     crowd_shares: float  # a blob with more shares than this many discs is crowded
     crowd_width: float  # as is one wider than this
     first: bool = False  # only whether there is one: the first blob kept ends the search
+    # px beyond FIGURE_MARGIN hidden around a figure of the ball's colour; more than one: tried in turn, until one
+    # keeps a blob
+    figure_pads: tuple[float, ...] = (0.0,)
 
     @staticmethod
     def exact(min_motion: float, width: tuple[float, float]) -> "_Limits":
@@ -91,11 +94,14 @@ class _Limits:
     @staticmethod
     def coarse(min_motion: float, width: tuple[float, float]) -> "_Limits":
         """Looser everywhere, crowding sooner: averaging 2x2 pixels lowers a solid blob's peak and blurs a streak's
-        edges. Checked on every streak search of goal5 and of four renders, the pass forced at their 4-8 px radii:
-        it said "maybe" in every window where full resolution found a streak (43 of 109 on shots-640-30-orange)."""
+        edges, and a figure's blend with the felt may reach a pixel further (smoothed over 3x3 of the half
+        resolution): the figures are hidden with their margin and, where that keeps no blob, a pixel more.
+        Checked on every streak search of goal5 and of four renders, the pass forced at their 4-8 px radii: it said
+        "maybe" in every window where full resolution found a streak (43 of 109 on shots-640-30-orange)."""
         k = COARSE_SLACK
         return _Limits((MOMENT_SHARES[0] / k, MOMENT_SHARES[1] * k), min_motion / k, (CUT_WIDTH / k, width[1] * k),
-                       MAX_PEAK / k, MAX_SOLID / k, True, MOMENT_SHARES[1] / k, width[1] / k, first=True)
+                       MAX_PEAK / k, MAX_SOLID / k, True, MOMENT_SHARES[1] / k, width[1] / k, first=True,
+                       figure_pads=(0.0, 1.0))
 
 
 @dataclass
@@ -161,10 +167,11 @@ def known_mask(mix: np.ndarray) -> np.ndarray:
     return known
 
 
-def ball_coloured_figures(alpha: np.ndarray, mask: np.ndarray, axes: np.ndarray, radius: float) -> Optional[np.ndarray]:
+def ball_coloured_figures(alpha: np.ndarray, mask: np.ndarray, axes: np.ndarray, radius: float,
+                          pad: float = 0.0) -> Optional[np.ndarray]:
     """bool, or None where there is none: the pixels of mask that are solid ball colour, in pieces that come within
-    FIGURE_REACH radii of a rod's axis (axes, nonzero on the axes' pixels), FIGURE_MARGIN radii around them included:
-    figures of the ball's colour."""
+    FIGURE_REACH radii of a rod's axis (axes, nonzero on the axes' pixels), FIGURE_MARGIN radii (and pad px) around
+    them included: figures of the ball's colour."""
     solid = (mask & (alpha >= SOLID_ALPHA)).astype(np.uint8)
     if not np.any(solid) or not np.any(axes):
         return None
@@ -175,7 +182,7 @@ def ball_coloured_figures(alpha: np.ndarray, mask: np.ndarray, axes: np.ndarray,
         return None
     _, labels = cv2.connectedComponents(solid, connectivity=8)
     figures = np.isin(labels, np.unique(labels[over_axis])).astype(np.uint8)
-    k = 2 * max(1, int(round(FIGURE_MARGIN * radius))) + 1
+    k = 2 * max(1, int(round(FIGURE_MARGIN * radius + pad))) + 1
     return cv2.dilate(figures, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
 
 
@@ -532,16 +539,31 @@ def _window_blobs(window: np.ndarray, origin: tuple[int, int], radius: float,
         plain &= region > 0
     # A streak many radii long is a few times the noise: its pixels are found on shares averaged over 3x3.
     alpha = smoothed(mix[..., 1], plain, 3)
-    mask = (plain & (alpha >= ALPHA_MIN)).astype(np.uint8)
+    seen = (plain & (alpha >= ALPHA_MIN)).astype(np.uint8)
     # An occluder's edge pixels blend it with the felt, and a grey rod's or a red figure's blend can pass for a share
     # of the ball: for the fit, the pixels next to anything unknown are not known either.
-    known = cv2.erode(plain.astype(np.uint8), np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE) > 0
+    clear = cv2.erode(plain.astype(np.uint8), np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE) > 0
     k = max(1, int(round(bridge * radius)))
-    if rod_axes is not None:
-        figures = ball_coloured_figures(alpha, mask > 0, rod_axes, radius)
-        if figures is not None:
-            mask[figures] = 0
-            known &= ~figures
+    blobs: list[_Blob] = []
+    for figure_pad in limits.figure_pads:
+        mask, known = (seen, clear) if len(limits.figure_pads) == 1 else (seen.copy(), clear.copy())
+        figures = None
+        if rod_axes is not None:
+            figures = ball_coloured_figures(alpha, mask > 0, rod_axes, radius, figure_pad)
+            if figures is not None:
+                mask[figures] = 0
+                known &= ~figures
+        blobs = _grouped_blobs(mix, plain, alpha, mask, known, k, radius_at, origin, limits)
+        if blobs or figures is None:
+            break  # (without figures, another margin around them changes nothing)
+    return mix, known, blobs
+
+
+def _grouped_blobs(mix: np.ndarray, plain: np.ndarray, alpha: np.ndarray, mask: np.ndarray, known: np.ndarray, k: int,
+                   radius_at: Callable[[float, float], float], origin: tuple[int, int], limits: _Limits) -> list[_Blob]:
+    """The blobs of mask that limits keep, grouped across gaps of k px (_grouping), and those too much for a ball
+    grouped again by their clear pixels."""
+    x0, y0 = origin
     crowded = np.zeros(mask.shape, bool)
     blobs = _blobs(mix, alpha, mask, _grouping(mask, plain, alpha, k), radius_at, (x0, y0), limits, ~known, crowded)
     # A streak that touches the blend of something hidden with the felt (a figure's outline) is one blob with it, too
@@ -560,4 +582,4 @@ def _window_blobs(window: np.ndarray, origin: tuple[int, int], radius: float,
                            radius_at, (x0 + bx0, y0 + by0), limits, ~known[box]):
             blob.xs, blob.ys, blob.centre = blob.xs + bx0, blob.ys + by0, (blob.centre[0] + bx0, blob.centre[1] + by0)
             blobs.append(blob)
-    return mix, known, blobs
+    return blobs
