@@ -412,7 +412,7 @@ def _blobs(mix: np.ndarray, alpha: np.ndarray, mask: np.ndarray, grouping: np.nd
             continue
         cut = (spread < limits.width[0] and spread >= CUT_WIDTH
                and _cut_along(xs, ys, (cu, cv_), vectors[:, 1], hidden))
-        if (spread >= limits.width[0] or cut) and limits.first:
+        if (spread >= limits.width[0] or cut) and limits.first:  # only whether there is one: no medians taken
             return [_Blob(xs, ys, shares, (cu, cv_), vectors[:, 1], motion, spread, radius, total / disc, 1.0, 0.0)]
         if spread >= limits.width[0] or cut:
             felt, share, residual = mix[ys, xs, 0], mix[ys, xs, 1], mix[ys, xs, 2]
