@@ -16,6 +16,7 @@ from typing import Callable, Optional
 import cv2
 import numpy as np
 
+from .components import components_with_stats
 from .streaks import Streak
 
 BALL_COLOR_NAMES = ("white", "yellow", "orange", "red")
@@ -281,7 +282,7 @@ class BallDetector:
             # measure the centre on the ball's own pixels only.
             kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * bridge_px + 1, 2 * bridge_px + 1))
             grouping = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel)
-        n, labels, stats, centroids = cv2.connectedComponentsWithStats(grouping, connectivity=8)
+        n, labels, stats, centroids = components_with_stats(grouping)
         found: list[Candidate] = []
         for i in range(1, n):
             area = stats[i, cv2.CC_STAT_AREA]

@@ -24,6 +24,7 @@ from typing import Callable, Optional
 import cv2
 import numpy as np
 
+from .components import components_with_stats
 from .detector import Candidate
 
 SCALE = 0.5  # the background is kept at half resolution: a ball of 8 px radius keeps 4
@@ -106,7 +107,7 @@ class MotionMap:
         moved = cv2.transform(change * change, np.ones((1, 3), np.float32)) >= CHANGE_MIN ** 2
         if self._region is not None:
             moved &= self._region > 0
-        n, labels, stats, centroids = cv2.connectedComponentsWithStats(moved.astype(np.uint8), connectivity=8)
+        n, labels, stats, centroids = components_with_stats(moved.astype(np.uint8))
         x0, y0 = self._roi[0], self._roi[1]
         found = []
         for i in range(1, n):
@@ -167,7 +168,7 @@ class MotionMap:
             over_felt_alpha = (cv2.transform(frame, over_felt[None, :]) - float(felt @ over_felt)) / max(
                 float(over_felt @ over_felt), 1e-3)
             share &= over_felt_alpha >= ALPHA_RANGE[0]
-        n, labels, stats, centroids = cv2.connectedComponentsWithStats(share.astype(np.uint8), connectivity=8)
+        n, labels, stats, centroids = components_with_stats(share.astype(np.uint8))
         found = []
         for i in range(1, n):
             if stats[i, cv2.CC_STAT_AREA] < 3:

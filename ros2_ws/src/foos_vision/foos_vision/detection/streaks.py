@@ -28,6 +28,8 @@ from typing import Callable, Optional
 import cv2
 import numpy as np
 
+from .components import components_with_stats
+
 ALPHA_MIN = 0.05  # least share of the exposure a pixel must have seen the ball in (noise: 0.01 on yellow and felt)
 RESIDUAL_MAX = 8.0  # 8-bit levels off the plane of the ball's and the felt's colours (noise 1.5, compression)
 FELT_SCALE = (0.5, 1.8)  # the felt behind a mixed pixel, as bright as its median times this
@@ -62,6 +64,44 @@ FIGURE_MARGIN, FIGURE_REACH = 0.3, 4.5
 # edge, and a line of felt blended with a rod or a figure along it reads so too (on the red-lens case: 0.51-0.54, 15
 # radii long, explained 0.8-0.93, and only their colour, 6-10 levels off the plane, told them from a streak).
 CUT_WIDTH, CUT_PROBE, CUT_SIDE = 0.58, 2.0, 0.5
+# A ball of COARSE_RADIUS px or more is looked for at half resolution first (a quarter of the pixels): the window is
+# searched at full resolution (as without this) only when a blob there passes the tests loosened by COARSE_SLACK, so
+# the search finds what it found before or, where the half-resolution pass missed a streak, nothing. On goal5 (12 px)
+# 6 of the 21 windows of the lost track are searched at full resolution, 7 ms a window at half against 22-26 at full.
+COARSE_RADIUS, COARSE_SLACK = 10.0, 1.25
+
+
+@dataclass(frozen=True)
+class _Limits:
+    """What _blobs keeps as a possible streak, and which groups it hands to the second grouping (crowded)."""
+    shares: tuple[float, float]  # kept: the shares of this many discs
+    min_motion: float  # kept: moved this many radii by the moments
+    width: tuple[float, float]  # kept: spread across the axis over a disc's (below width[0]: cut, CUT_WIDTH)
+    peak: float  # a blob with a share this high is solid: crowded
+    solid: float  # as is one with more than this share of its pixels over SOLID_ALPHA
+    solid_judged: bool  # a solid blob is still judged by its moments (else dropped)
+    crowd_shares: float  # a blob with more shares than this many discs is crowded
+    crowd_width: float  # as is one wider than this
+    first: bool = False  # only whether there is one: the first blob kept ends the search
+    # px beyond FIGURE_MARGIN hidden around a figure of the ball's colour; more than one: tried in turn, until one
+    # keeps a blob
+    figure_pads: tuple[float, ...] = (0.0,)
+
+    @staticmethod
+    def exact(min_motion: float, width: tuple[float, float]) -> "_Limits":
+        return _Limits(MOMENT_SHARES, min_motion, width, MAX_PEAK, MAX_SOLID, False, MOMENT_SHARES[1], width[1])
+
+    @staticmethod
+    def coarse(min_motion: float, width: tuple[float, float]) -> "_Limits":
+        """Looser everywhere, crowding sooner: averaging 2x2 pixels lowers a solid blob's peak and blurs a streak's
+        edges, and a figure's blend with the felt may reach a pixel further (smoothed over 3x3 of the half
+        resolution): the figures are hidden with their margin and, where that keeps no blob, a pixel more.
+        Checked on every streak search of goal5 and of four renders, the pass forced at their 4-8 px radii: it said
+        "maybe" in every window where full resolution found a streak (43 of 109 on shots-640-30-orange)."""
+        k = COARSE_SLACK
+        return _Limits((MOMENT_SHARES[0] / k, MOMENT_SHARES[1] * k), min_motion / k, (CUT_WIDTH / k, width[1] * k),
+                       MAX_PEAK / k, MAX_SOLID / k, True, MOMENT_SHARES[1] / k, width[1] / k, first=True,
+                       figure_pads=(0.0, 1.0))
 
 
 @dataclass
@@ -127,10 +167,11 @@ def known_mask(mix: np.ndarray) -> np.ndarray:
     return known
 
 
-def ball_coloured_figures(alpha: np.ndarray, mask: np.ndarray, axes: np.ndarray, radius: float) -> Optional[np.ndarray]:
+def ball_coloured_figures(alpha: np.ndarray, mask: np.ndarray, axes: np.ndarray, radius: float,
+                          pad: float = 0.0) -> Optional[np.ndarray]:
     """bool, or None where there is none: the pixels of mask that are solid ball colour, in pieces that come within
-    FIGURE_REACH radii of a rod's axis (axes, nonzero on the axes' pixels), FIGURE_MARGIN radii around them included:
-    figures of the ball's colour."""
+    FIGURE_REACH radii of a rod's axis (axes, nonzero on the axes' pixels), FIGURE_MARGIN radii (and pad px) around
+    them included: figures of the ball's colour."""
     solid = (mask & (alpha >= SOLID_ALPHA)).astype(np.uint8)
     if not np.any(solid) or not np.any(axes):
         return None
@@ -141,7 +182,7 @@ def ball_coloured_figures(alpha: np.ndarray, mask: np.ndarray, axes: np.ndarray,
         return None
     _, labels = cv2.connectedComponents(solid, connectivity=8)
     figures = np.isin(labels, np.unique(labels[over_axis])).astype(np.uint8)
-    k = 2 * max(1, int(round(FIGURE_MARGIN * radius))) + 1
+    k = 2 * max(1, int(round(FIGURE_MARGIN * radius + pad))) + 1
     return cv2.dilate(figures, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
 
 
@@ -319,19 +360,19 @@ def _cut_along(xs: np.ndarray, ys: np.ndarray, centre: tuple[float, float], axis
 
 
 def _blobs(mix: np.ndarray, alpha: np.ndarray, mask: np.ndarray, grouping: np.ndarray,
-           radius_at: Callable[[float, float], float], origin: tuple[int, int], min_motion: float,
-           width: tuple[float, float], hidden: np.ndarray, crowded: Optional[np.ndarray] = None) -> list[_Blob]:
+           radius_at: Callable[[float, float], float], origin: tuple[int, int], limits: _Limits,
+           hidden: np.ndarray, crowded: Optional[np.ndarray] = None) -> list[_Blob]:
     """The blobs of mask (grouped as in grouping) that may be streaks by their moments. hidden: the pixels that may
     hide the ball (a blob narrower than a disc against them along one side may be one still, CUT_WIDTH). crowded
     (bool, the window's shape), when given, is set on the pixels of the groups that are too much for a ball: too
-    solid, more than MOMENT_SHARES discs of shares, or wider than `width`."""
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(grouping, connectivity=8)
+    solid, too many discs of shares, or too wide (limits)."""
+    n, labels, stats, _ = components_with_stats(grouping)
     x0, y0 = origin
     blobs = []
     for i in range(1, n):
         bx, by, bw, bh, area = stats[i]
         radius = radius_at(bx + bw / 2 + x0, by + bh / 2 + y0)
-        if area < MOMENT_SHARES[0] * math.pi * radius * radius:
+        if area < limits.shares[0] * math.pi * radius * radius:
             continue  # too few pixels for the shares of a disc, even all ball
         # The group, and the pixels of mask next to it (a streak's own pixels beside what hides part of it).
         right, bottom = min(bx + bw + 1, labels.shape[1]), min(by + bh + 1, labels.shape[0])
@@ -344,18 +385,19 @@ def _blobs(mix: np.ndarray, alpha: np.ndarray, mask: np.ndarray, grouping: np.nd
         xs, ys = xs + bx, ys + by
         if total <= 0:
             continue
-        if shares.max() >= MAX_PEAK or np.count_nonzero(shares >= SOLID_ALPHA) > MAX_SOLID * len(shares):
+        if shares.max() >= limits.peak or np.count_nonzero(shares >= SOLID_ALPHA) > limits.solid * len(shares):
             if crowded is not None:
                 crowded[ys, xs] = True
-            continue
+            if not limits.solid_judged:
+                continue
         # np.dot, not @: a vector product of mixed types (int64 or float64 by float32) in @ takes numpy's generic
         # loop, 25 times slower (20 ms a call of find_streaks on goal5's windows).
         cu, cv_ = float(np.dot(xs, shares) / total), float(np.dot(ys, shares) / total)
         radius = radius_at(cu + x0, cv_ + y0)
         disc = math.pi * radius * radius
-        if not MOMENT_SHARES[0] * disc <= total <= MOMENT_SHARES[1] * disc:
-            if crowded is not None and total > MOMENT_SHARES[1] * disc:
-                crowded[ys, xs] = True
+        if crowded is not None and total > limits.crowd_shares * disc:
+            crowded[ys, xs] = True
+        if not limits.shares[0] * disc <= total <= limits.shares[1] * disc:
             continue
         dx, dy = xs - cu, ys - cv_
         cov = np.array([[np.dot(shares, dx * dx), np.dot(shares, dx * dy)],
@@ -364,12 +406,15 @@ def _blobs(mix: np.ndarray, alpha: np.ndarray, mask: np.ndarray, grouping: np.nd
         across, along = max(values[0], 1e-6), max(values[1], 1e-6)
         motion = math.sqrt(max(0.0, 12.0 * (along - across)))
         spread = math.sqrt(across) / (radius / 2)
-        if spread > width[1] and crowded is not None:
+        if spread > limits.crowd_width and crowded is not None:
             crowded[ys, xs] = True
-        if motion < min_motion * radius or spread > width[1]:
+        if motion < limits.min_motion * radius or spread > limits.width[1]:
             continue
-        cut = spread < width[0] and spread >= CUT_WIDTH and _cut_along(xs, ys, (cu, cv_), vectors[:, 1], hidden)
-        if spread >= width[0] or cut:
+        cut = (spread < limits.width[0] and spread >= CUT_WIDTH
+               and _cut_along(xs, ys, (cu, cv_), vectors[:, 1], hidden))
+        if (spread >= limits.width[0] or cut) and limits.first:  # only whether there is one: no medians taken
+            return [_Blob(xs, ys, shares, (cu, cv_), vectors[:, 1], motion, spread, radius, total / disc, 1.0, 0.0)]
+        if spread >= limits.width[0] or cut:
             felt, share, residual = mix[ys, xs, 0], mix[ys, xs, 1], mix[ys, xs, 2]
             blobs.append(_Blob(xs, ys, shares, (cu, cv_), vectors[:, 1], motion, spread, radius, total / disc,
                                float(np.median(felt / np.maximum(1.0 - share, 1e-3))), float(np.median(residual)), cut))
@@ -438,32 +483,93 @@ def find_streaks(bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Cal
     moved min_motion radii or more and whose spread across their axis is `width` times a disc's (a rod's highlight is
     thinner) are measured, at most `most` of them, the nearest to `near` (a full-frame pixel) first: a fit costs
     5-10 ms. rod_axes: the image of the rods' axes (nonzero on them; BallSearch gives it for a coloured ball): solid
-    ball colour by one is a figure, hidden (ball_coloured_figures)."""
+    ball colour by one is a figure, hidden (ball_coloured_figures). A ball of COARSE_RADIUS px or more is looked for
+    at half resolution first (may_hold_streak): where nothing there may be a streak, the full resolution is spared."""
     x0, y0, x1, y1 = roi
-    mix = mixing(bgr[y0:y1, x0:x1], ball_bgr, felt_bgr)
+    radius = radius_at((x0 + x1) / 2, (y0 + y1) / 2)
+    if radius >= COARSE_RADIUS and not may_hold_streak(bgr, roi, radius, radius_at, ball_bgr, felt_bgr, region,
+                                                       bridge, min_motion, width, rod_axes):
+        return []
+    window = (slice(y0, y1), slice(x0, x1))
+    mix, known, blobs = _window_blobs(bgr[window], (x0, y0), radius, radius_at, ball_bgr, felt_bgr,
+                                      None if region is None else region[window], bridge,
+                                      _Limits.exact(min_motion, width), None if rod_axes is None else rod_axes[window])
+    if near is not None:
+        blobs.sort(key=lambda b: math.hypot(b.centre[0] + x0 - near[0], b.centre[1] + y0 - near[1]))
+    if blobs:
+        alpha = smoothed(mix[..., 1], known, max(3, int(round(SMOOTHING * radius)) | 1))
+    return [_measure(blob, alpha, known, (x0, y0)) for blob in blobs[:most]]
+
+
+def may_hold_streak(bgr: np.ndarray, roi: tuple[int, int, int, int], radius: float,
+                    radius_at: Callable[[float, float], float], ball_bgr: np.ndarray, felt_bgr: np.ndarray,
+                    region: Optional[np.ndarray] = None, bridge: float = 1.6, min_motion: float = 1.0,
+                    width: tuple[float, float] = (0.7, 1.3), rod_axes: Optional[np.ndarray] = None) -> bool:
+    """Something in roi may be a streak (find_streaks' arguments; radius: the ball's at the roi's centre): a blob of
+    the window at half resolution (2x2 pixels averaged) passes the loosened limits (_Limits.coarse). The region and
+    the rods' axes count where any of a half-resolution pixel's 4 pixels does."""
+    x0, y0, x1, y1 = roi
+    w, h = (x1 - x0) // 2, (y1 - y0) // 2
+    if w < 3 or h < 3:
+        return True
+    x1, y1 = x0 + 2 * w, y0 + 2 * h  # an even window: each pixel at half resolution is the mean of 2x2
+
+    def half(image: np.ndarray) -> np.ndarray:
+        return cv2.resize(image[y0:y1, x0:x1], (w, h), interpolation=cv2.INTER_AREA)
+
+    def radius_at_half(u: float, v: float) -> float:
+        return radius_at(x0 + 2 * u + 0.5, y0 + 2 * v + 0.5) / 2
+
+    _, _, blobs = _window_blobs(half(bgr), (0, 0), radius / 2, radius_at_half, ball_bgr, felt_bgr,
+                                None if region is None else half(region), bridge, _Limits.coarse(min_motion, width),
+                                None if rod_axes is None else half(rod_axes))
+    return bool(blobs)
+
+
+def _window_blobs(window: np.ndarray, origin: tuple[int, int], radius: float,
+                  radius_at: Callable[[float, float], float], ball_bgr: np.ndarray, felt_bgr: np.ndarray,
+                  region: Optional[np.ndarray], bridge: float, limits: _Limits,
+                  rod_axes: Optional[np.ndarray]) -> tuple[np.ndarray, np.ndarray, list[_Blob]]:
+    """(the window's mixing, its known pixels, the blobs that limits keep) of a BGR window whose pixel (0, 0) is
+    `origin` for radius_at; region and rod_axes: the window's own (nonzero: the field, an axis)."""
+    x0, y0 = origin
+    mix = mixing(window, ball_bgr, felt_bgr)
     plain = known_mask(mix)
     if region is not None:
-        plain &= region[y0:y1, x0:x1] > 0
+        plain &= region > 0
     # A streak many radii long is a few times the noise: its pixels are found on shares averaged over 3x3.
     alpha = smoothed(mix[..., 1], plain, 3)
-    mask = (plain & (alpha >= ALPHA_MIN)).astype(np.uint8)
+    seen = (plain & (alpha >= ALPHA_MIN)).astype(np.uint8)
     # An occluder's edge pixels blend it with the felt, and a grey rod's or a red figure's blend can pass for a share
     # of the ball: for the fit, the pixels next to anything unknown are not known either.
-    known = cv2.erode(plain.astype(np.uint8), np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE) > 0
-    radius = radius_at((x0 + x1) / 2, (y0 + y1) / 2)
+    clear = cv2.erode(plain.astype(np.uint8), np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE) > 0
     k = max(1, int(round(bridge * radius)))
-    if rod_axes is not None:
-        figures = ball_coloured_figures(alpha, mask > 0, rod_axes[y0:y1, x0:x1], radius)
-        if figures is not None:
-            mask[figures] = 0
-            known &= ~figures
+    blobs: list[_Blob] = []
+    for figure_pad in limits.figure_pads:
+        mask, known = (seen, clear) if len(limits.figure_pads) == 1 else (seen.copy(), clear.copy())
+        figures = None
+        if rod_axes is not None:
+            figures = ball_coloured_figures(alpha, mask > 0, rod_axes, radius, figure_pad)
+            if figures is not None:
+                mask[figures] = 0
+                known &= ~figures
+        blobs = _grouped_blobs(mix, plain, alpha, mask, known, k, radius_at, origin, limits)
+        if blobs or figures is None:
+            break  # (without figures, another margin around them changes nothing)
+    return mix, known, blobs
+
+
+def _grouped_blobs(mix: np.ndarray, plain: np.ndarray, alpha: np.ndarray, mask: np.ndarray, known: np.ndarray, k: int,
+                   radius_at: Callable[[float, float], float], origin: tuple[int, int], limits: _Limits) -> list[_Blob]:
+    """The blobs of mask that limits keep, grouped across gaps of k px (_grouping), and those too much for a ball
+    grouped again by their clear pixels."""
+    x0, y0 = origin
     crowded = np.zeros(mask.shape, bool)
-    blobs = _blobs(mix, alpha, mask, _grouping(mask, plain, alpha, k), radius_at, (x0, y0), min_motion, width, ~known,
-                   crowded)
+    blobs = _blobs(mix, alpha, mask, _grouping(mask, plain, alpha, k), radius_at, (x0, y0), limits, ~known, crowded)
     # A streak that touches the blend of something hidden with the felt (a figure's outline) is one blob with it, too
     # wide or too solid: such blobs are grouped again by their pixels clear of anything hidden (a streak's own pixels
     # next to one join the blob they touch), and what of them is a streak by its moments is measured too.
-    if np.any(crowded):
+    if np.any(crowded) and not (blobs and limits.first):
         # Only around the crowded pixels: the closing of the clear ones is nothing further than its kernel from them,
         # so a box that wide around them (and a few pixels for the blobs' own margins) finds the same blobs.
         cx, cy, cw, ch = cv2.boundingRect(crowded.astype(np.uint8))
@@ -473,11 +579,7 @@ def find_streaks(bgr: np.ndarray, roi: tuple[int, int, int, int], radius_at: Cal
         box = (slice(by0, by1), slice(bx0, bx1))
         clear = (mask[box] & known[box] & crowded[box]).astype(np.uint8)
         for blob in _blobs(mix[box], alpha[box], mask[box] & crowded[box], _grouping(clear, known[box], alpha[box], k + 2),
-                           radius_at, (x0 + bx0, y0 + by0), min_motion, width, ~known[box]):
+                           radius_at, (x0 + bx0, y0 + by0), limits, ~known[box]):
             blob.xs, blob.ys, blob.centre = blob.xs + bx0, blob.ys + by0, (blob.centre[0] + bx0, blob.centre[1] + by0)
             blobs.append(blob)
-    if near is not None:
-        blobs.sort(key=lambda b: math.hypot(b.centre[0] + x0 - near[0], b.centre[1] + y0 - near[1]))
-    if blobs:
-        alpha = smoothed(mix[..., 1], known, max(3, int(round(SMOOTHING * radius)) | 1))
-    return [_measure(blob, alpha, known, (x0, y0)) for blob in blobs[:most]]
+    return blobs
