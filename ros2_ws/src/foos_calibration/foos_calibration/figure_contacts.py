@@ -180,8 +180,14 @@ class JointTrack:
     q: np.ndarray
 
     def at(self, times: np.ndarray) -> np.ndarray:
-        """(n, 16) joint positions interpolated at `times` (held at the ends)."""
-        return np.stack([np.interp(times, self.t, self.q[:, j]) for j in range(self.q.shape[1])], axis=1)
+        """(n, 16) joint positions interpolated at `times` (held at the ends): np.interp's values, with one search
+        for all 16 columns (np.interp per column copied each strided column of a 1 kHz game's samples every call)."""
+        times = np.asarray(times, dtype=float)
+        after = np.clip(np.searchsorted(self.t, times, side="right"), 1, len(self.t) - 1)
+        t0, t1 = self.t[after - 1], self.t[after]
+        share = np.clip((times - t0) / (t1 - t0), 0.0, 1.0)[..., None]
+        q0, q1 = self.q[after - 1], self.q[after]
+        return q0 + share * (q1 - q0)
 
 
 class RodLines:

@@ -38,11 +38,11 @@ from typing import Callable
 import numpy as np
 
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES, TEAMS
-from foos_sim import scurve
 from foos_sim.drive_limits import DriveLimits, Servo, drive_limits_from_effects
 from foos_sim.drive_profiles import ProfileLimits
 
-from . import drive_gain, drive_prediction
+from . import drive_gain, drive_prediction, drive_shaping
+from .drive_shaping import shaped_velocity
 
 COMPONENTS = ("latency", "speed", "acceleration")
 EFFECT_OF = {"latency": "rod_latency", "speed": "rod_speed_limit", "acceleration": "rod_acceleration_limit"}
@@ -70,7 +70,10 @@ SPEED_GRID = np.geomspace(0.2, 1.0, 12)  # shares of the drive's command limit (
 PROFILE_SPEED_GRID = np.geomspace(0.02, 1.0, 28)
 ACCEL_GRID = np.geomspace(0.01, 1.0, 16)  # shares of the servo's own acceleration (1: no limit)
 REFINE = 9
-SAMPLE_EVERY = 2  # joint states used for the fit: every second one (125 Hz of a 250 Hz encoder is plenty)
+# Joint states used for the fit: those nearest a FIT_RATE grid (all of them from slower encoders), whatever the encoder
+# rate. The evidence is a sum over samples, so a fixed rate keeps MIN_EVIDENCE's meaning (it was set on every second
+# sample of 250 Hz encoders: 125 Hz) and the fit's cost (lanes x samples) the same on 100 Hz and 1 kHz encoders.
+FIT_RATE = 125.0  # Hz
 
 
 class RodDataError(ValueError):
@@ -127,90 +130,6 @@ class RodResult:
     refused: list[dict] = field(default_factory=list)  # effects the selection named that earned no held-out gain
 
 
-# --- the shaped velocity ---------------------------------------------------------------------------
-def _recur(event_t: np.ndarray, goals: np.ndarray, accel: np.ndarray) -> np.ndarray:
-    """The rate limiter's value at each event (K, L), for goals (K, L) holding from each event to the next."""
-    y = np.zeros(goals.shape[1])
-    out = np.empty_like(goals)
-    gaps = np.diff(event_t, append=event_t[-1])
-    for k in range(len(event_t)):
-        out[k] = y
-        reach = accel * gaps[k]
-        y = y + np.clip(goals[k] - y, -reach, reach)
-    return out
-
-
-class _Recurrences:
-    """The S-curves' states at the events of lanes already followed (a fit asks for the same lanes again: a
-    component held while another is swept, the same candidates in the next sweep and subset), by lane key."""
-
-    def __init__(self):
-        self.events = None
-        self.states: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-
-    def follow(self, event_t, keys, goals, accel, jerk) -> tuple[np.ndarray, np.ndarray]:
-        if self.events is None or len(self.events) != len(event_t) or not np.array_equal(self.events, event_t):
-            self.events, self.states = event_t.copy(), {}
-        rows = [tuple(k) for k in keys.tolist()]
-        missing = [i for i, row in enumerate(rows) if row not in self.states]
-        if missing:
-            v, a = scurve.follow(event_t, goals[:, missing], accel[missing], jerk[missing])
-            for j, i in enumerate(missing):
-                self.states[rows[i]] = (v[:, j], a[:, j])
-        return (np.stack([self.states[row][0] for row in rows], axis=1),
-                np.stack([self.states[row][1] for row in rows], axis=1))
-
-
-_RECURRENCES = _Recurrences()
-
-
-def _s_curve_velocity(event_t, goals, sample_t, delay, accel, jerk, acceleration=False):
-    """shaped_velocity on the jerk-limited drives: each lane's S-curve (foos_sim.scurve) through its goals."""
-    # Lanes with the same goals and limits (candidates of a latency, which only shifts the samples) share one
-    # recurrence over the events: the goals compared through a fixed random projection.
-    signature = np.random.default_rng(0).standard_normal(len(goals)) @ goals
-    keys = np.stack([signature, np.broadcast_to(accel, signature.shape), np.broadcast_to(jerk, signature.shape)], axis=1)
-    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    unique_goals = goals[:, first]
-    v_event, a_event = _RECURRENCES.follow(event_t, keys[first], unique_goals, np.broadcast_to(accel, signature.shape)[first],
-                                           np.broadcast_to(jerk, signature.shape)[first])
-    shifted = sample_t[None, :] - delay[:, None]
-    k = np.searchsorted(event_t, shifted, side="right") - 1
-    valid = k >= 0
-    k = np.maximum(k, 0)
-    lanes = inverse[:, None]
-    elapsed = np.maximum(shifted - event_t[k], 0.0)
-    v, a, _ = scurve.advance(v_event[k, lanes], a_event[k, lanes], unique_goals[k, lanes],
-                             np.broadcast_to(accel, signature.shape)[:, None], np.broadcast_to(jerk, signature.shape)[:, None], elapsed)
-    return (v * valid, a * valid) if acceleration else v * valid
-
-
-def shaped_velocity(event_t, commands, sample_t, delay, speed, accel, lag, jerk=None, acceleration=False):
-    """(L, N): the model's velocity at sample_t for L lanes (commands (K, L); delay, speed, accel, lag, jerk (L,);
-    jerk None: the servos' rate limiter, else the jerk-limited drives' S-curves, and with `acceleration` their
-    setpoints' acceleration too)."""
-    goals = np.clip(commands, -speed, speed)
-    if jerk is not None:
-        return _s_curve_velocity(event_t, goals, sample_t, np.asarray(delay + lag, dtype=float), accel, jerk, acceleration)
-    y = _recur(event_t, goals, accel)
-    shifted = sample_t[None, :] - (delay + lag)[:, None]
-    k = np.searchsorted(event_t, shifted, side="right") - 1
-    valid = k >= 0
-    k = np.maximum(k, 0)
-    lanes = np.arange(goals.shape[1])[:, None]
-    y0, goal = y[k, lanes], goals[k, lanes]
-    reach = np.maximum(shifted - event_t[k], 0.0)
-    reach *= accel[:, None]
-    goal -= y0
-    np.minimum(goal, reach, out=goal)
-    np.negative(reach, out=reach)
-    np.maximum(goal, reach, out=goal)
-    goal += y0
-    goal *= valid
-    return goal
-
-
 # --- fitting one team's drives ---------------------------------------------------------------------
 @dataclass
 class _Team:
@@ -236,14 +155,24 @@ def _values(params: dict, team: _Team, lanes: np.ndarray) -> tuple[np.ndarray, n
 
 
 def _rss(team: _Team, drives: np.ndarray, params: dict) -> np.ndarray:
-    """(L, 3) squared velocity error over all samples, fold 0 and fold 1, for lanes of (drive, parameter)."""
+    """(L, 3) squared velocity error over all samples, fold 0 and fold 1, for lanes of (drive, parameter). Lanes
+    with the same drive and values (the three fitting sets' candidates on a coarse grid) are computed once."""
     delay, speed, accel = _values(params, team, drives)
+    lanes, first, inverse = np.unique(np.stack([drives, delay, speed, accel], axis=1), axis=0, return_index=True,
+                                      return_inverse=True)
+    if len(lanes) < len(drives):
+        return _rss_of(team, drives[first], delay[first], speed[first], accel[first])[inverse.ravel()]
+    return _rss_of(team, drives, delay, speed, accel)
+
+
+def _rss_of(team: _Team, drives: np.ndarray, delay: np.ndarray, speed: np.ndarray, accel: np.ndarray) -> np.ndarray:
     v = shaped_velocity(team.event_t, team.commands[:, drives], team.t, delay, speed, accel, team.lag[drives],
                         None if team.jerk is None else team.jerk[drives])
-    r2 = (v - team.measured[drives]) ** 2 * team.weight[drives]
-    f1 = team.folds[None, :] == 1
-    fold1 = np.where(f1, r2, 0.0).sum(axis=1)
-    total = r2.sum(axis=1)
+    v -= team.measured[drives]
+    v *= v
+    v *= team.weight[drives]
+    fold1 = v @ (team.folds == 1).astype(float)
+    total = v.sum(axis=1)
     return np.stack([total, total - fold1, fold1], axis=1)
 
 
@@ -474,6 +403,13 @@ def limits_of(effects: list[dict]) -> DriveLimits:
 
 
 # --- identification and its gain --------------------------------------------------------------------
+def fit_samples(t: np.ndarray) -> np.ndarray:
+    """Indices of the joint states the fit uses: the sample nearest each point of a FIT_RATE grid over the game
+    (every sample where the encoders are slower; a gap of lost samples is not filled)."""
+    grid = np.arange(t[0], t[-1] + 0.5 / FIT_RATE, 1.0 / FIT_RATE)
+    return np.unique(drive_prediction.nearest_samples(t, grid))
+
+
 def _teams(data: DriveData, model: DriveModel) -> list[_Team]:
     slide = np.array([n.endswith("_slide") for n in JOINT_NAMES])
     at_stop = slide[None, :] & (np.abs(data.position) > model.travel[None, :] - STOP_MARGIN)
@@ -482,7 +418,7 @@ def _teams(data: DriveData, model: DriveModel) -> list[_Team]:
     for i, team in enumerate(TEAMS):
         cols = slice(i * COMMAND_SIZE, (i + 1) * COMMAND_SIZE)
         commands = np.clip(data.commands[team], -model.command_limits[cols], model.command_limits[cols])
-        every = slice(None, None, SAMPLE_EVERY)
+        every = fit_samples(data.t)
         teams.append(_Team(
             event_t=data.command_t[team], commands=commands, t=data.t[every], measured=data.velocity[every, cols].T,
             weight=(~at_stop[every, cols]).T.astype(float), folds=folds[every], limit=model.command_limits[cols],
@@ -631,7 +567,7 @@ def identify(data: DriveData, model: DriveModel, progress: Callable[[str], None]
              seed: int = 0) -> RodResult:
     """The drive effects the game supports, with evidence, and the report's `rods` block."""
     progress("fitting the rod drives (latency, speed and acceleration limits) per drive, on two folds")
-    _RECURRENCES.__init__()  # a new game's events
+    drive_shaping.new_game()
     teams = _teams(data, model)
     per_drive = []
     for team in teams:
