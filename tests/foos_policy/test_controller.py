@@ -29,16 +29,20 @@ def test_joint_states_are_mapped_by_name():
         ball_sample(1.0, (np.inf, 0, 0), (0, 0, 0))
 
 
+def _steps_after_states(controller, joints_at: float, ball_at: float, acts_at: float, holds_at: float):
+    """The controller fed still joints and a still ball stamped at the given times, stepped twice."""
+    controller.joints = joint_sample(joints_at, JOINT_NAMES, np.zeros(16), np.zeros(16))
+    controller.ball = ball_sample(ball_at, (0, 0, 0.0175), (0, 0, 0))
+    return controller.step(acts_at), controller.step(holds_at)
+
+
 def test_stale_or_missing_inputs_hold_the_rods(sim):
     c = PolicyController(make_policy("random"), "home", sim.command_limits, stale_after=0.1)
     command, reason = c.step(0.0)
     assert "no /joint_states" in reason and not command.any()
-    c.joints = joint_sample(1.0, JOINT_NAMES, np.zeros(16), np.zeros(16))
-    c.ball = ball_sample(1.0, (0, 0, 0.0175), (0, 0, 0))
-    command, reason = c.step(1.05)
+    (command, reason), (held, why) = _steps_after_states(c, 1.0, 1.0, 1.05, 1.5)
     assert reason is None and command.any()
-    command, reason = c.step(1.5)
-    assert "/joint_states is 0.50 s old" in reason and not command.any()
+    assert "/joint_states is 0.50 s old" in why and not held.any()
     stats = c.latency_stats()
     assert stats["n"] == 1 and stats["median_ms"] >= 0
 
@@ -46,12 +50,9 @@ def test_stale_or_missing_inputs_hold_the_rods(sim):
 def test_a_camera_loops_late_ball_state_still_drives_the_rods(sim):
     """By default a /ball/state 0.12 s old (a 30 fps frame plus 80 ms of detection) is used, not held on."""
     c = PolicyController(make_policy("random"), "home", sim.command_limits)
-    c.joints = joint_sample(1.0, JOINT_NAMES, np.zeros(16), np.zeros(16))
-    c.ball = ball_sample(0.88, (0, 0, 0.0175), (0, 0, 0))
-    command, reason = c.step(1.0)
+    (command, reason), (held, why) = _steps_after_states(c, 1.0, 0.88, 1.0, 1.2)
     assert reason is None and command.any()
-    command, reason = c.step(1.2)
-    assert "/ball/state is 0.32 s old" in reason and not command.any()
+    assert "/ball/state is 0.32 s old" in why and not held.any()
 
 
 def test_the_away_team_plays_the_mirrored_game(sim):
