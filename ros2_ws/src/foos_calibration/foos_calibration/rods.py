@@ -258,6 +258,21 @@ def _earns(drops: list[float]) -> bool:
     return sum(drops) >= MIN_EVIDENCE and min(drops) >= -max(10.0, MIN_FOLD_SHARE * sum(drops))
 
 
+def _in_order(components: tuple[str, ...]) -> tuple[str, ...]:
+    return tuple(c for c in COMPONENTS if c in components)
+
+
+def _nuisance_latency(fits: dict, noise2: float, weight: float, team: _Team, drive: int) -> tuple[str, ...]:
+    """("latency",) where a dead time too small to name (under MATERIAL_DELAY: commands stamped when sent and
+    arriving a few ms later, say) still earns its held-out evidence: fitted as a nuisance, it keeps a rate limit
+    from being named in its place; () otherwise."""
+    rss, values = fits[("latency",)]
+    unit = _variance_unit(noise2, rss[drive], weight, 1)
+    drops = _held_out_drops(fits[()][0][drive], rss[drive], unit)
+    material = _material("latency", float(values["latency"][drive, 0]), team, drive)
+    return ("latency",) if _earns(drops) and not material else ()
+
+
 def _select_team(team: _Team, progress) -> list[dict]:
     """Per drive of the team: the named components, their values (all data, fold 0, fold 1) and evidence."""
     fits = {}
@@ -269,13 +284,14 @@ def _select_team(team: _Team, progress) -> list[dict]:
     for d in range(COMMAND_SIZE):
         chosen: tuple[str, ...] = ()
         info: dict[str, dict] = {}
+        nuisance = _nuisance_latency(fits, noise2[d], float(team.weight[d].sum()), team, d)
         while True:
-            current = fits[chosen][0][d]
+            current = fits[_in_order(chosen + nuisance)][0][d]
             best = None
             for c in COMPONENTS:
-                if c in chosen:
+                if c in chosen or c in nuisance:
                     continue
-                subset = tuple(x for x in COMPONENTS if x in chosen + (c,))
+                subset = _in_order(chosen + nuisance + (c,))
                 rss, values = fits[subset]
                 scale2 = _variance_unit(noise2[d], rss[d], float(team.weight[d].sum()), len(subset))
                 drops = _held_out_drops(current, rss[d], scale2)
@@ -290,10 +306,11 @@ def _select_team(team: _Team, progress) -> list[dict]:
                 info[c] = entry  # the latest look at each candidate not (yet) named
             if best is None:
                 break
-            c, _, chosen, entry = best
+            c, _, fitted, entry = best
+            chosen = tuple(x for x in fitted if x not in nuisance)
             info[c] = {**entry, "named": True}
-        values = fits[chosen][1]
-        rss = fits[chosen][0][d]
+        values = fits[_in_order(chosen + nuisance)][1]
+        rss = fits[_in_order(chosen + nuisance)][0][d]
         scale2 = _variance_unit(noise2[d], rss, float(team.weight[d].sum()), len(chosen))
         out.append({"chosen": chosen, "values": {c: values[c][d] for c in chosen}, "evidence": info, "rss": rss, "scale2": scale2})
     return out
