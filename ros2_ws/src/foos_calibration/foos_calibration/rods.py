@@ -262,15 +262,20 @@ def _in_order(components: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(c for c in COMPONENTS if c in components)
 
 
-def _nuisance_latency(fits: dict, noise2: float, weight: float, team: _Team, drive: int) -> tuple[str, ...]:
-    """("latency",) where a dead time too small to name (under MATERIAL_DELAY: commands stamped when sent and
-    arriving a few ms later, say) still earns its held-out evidence: fitted as a nuisance, it keeps a rate limit
-    from being named in its place; () otherwise."""
+def _nuisance_latency(fits: dict, noise2: float, weight: float, team: _Team, drive: int) -> tuple[tuple[str, ...], dict]:
+    """(("latency",), its evidence entry) where a dead time too small to name (under MATERIAL_DELAY: commands
+    stamped when sent and arriving a few ms later, say) still earns its held-out evidence: fitted as a nuisance, it
+    keeps a rate limit from being named in its place. ((), {}) otherwise."""
     rss, values = fits[("latency",)]
     unit = _variance_unit(noise2, rss[drive], weight, 1)
     drops = _held_out_drops(fits[()][0][drive], rss[drive], unit)
     material = _material("latency", float(values["latency"][drive, 0]), team, drive)
-    return ("latency",) if _earns(drops) and not material else ()
+    if not _earns(drops) or material:
+        return (), {}
+    entry = {"held_out_error_drop_noise_variances": round(float(sum(drops)), 1), "per_fold": [round(float(x), 1) for x in drops],
+             "residual_scatter_over_noise": round(float(np.sqrt(unit / noise2)), 2), "material": False,
+             "fitted_as_nuisance_s": round(float(values["latency"][drive, 0]), 4)}
+    return ("latency",), entry
 
 
 def _select_team(team: _Team, progress) -> list[dict]:
@@ -284,7 +289,9 @@ def _select_team(team: _Team, progress) -> list[dict]:
     for d in range(COMMAND_SIZE):
         chosen: tuple[str, ...] = ()
         info: dict[str, dict] = {}
-        nuisance = _nuisance_latency(fits, noise2[d], float(team.weight[d].sum()), team, d)
+        nuisance, entry = _nuisance_latency(fits, noise2[d], float(team.weight[d].sum()), team, d)
+        if nuisance:
+            info["latency"] = entry  # in the model while the limits are judged, never named
         while True:
             current = fits[_in_order(chosen + nuisance)][0][d]
             best = None
