@@ -64,12 +64,12 @@ class EpisodeStats:
     touches_home: int = 0
     touches_away: int = 0
     last_home_touch_y: Optional[float] = None
-    last_home_touch_rod: Optional[str] = None  # the home rod nearest the ball when home last began touching it
     last_toucher: Optional[str] = None  # home | away | both (began in the same control step) | None
     final_y: float = 0.0
     task: str = ""                      # reset/opponent the episode was played on
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self, home_rod_y: dict[str, float]) -> dict[str, Any]:
+        """The episode's figures; `home_rod_y` (home rod name -> y) names the rod of the last home touch."""
         touched = self.touches_home > 0
         progress = (self.final_y - self.last_home_touch_y) if self.last_home_touch_y is not None else 0.0
         return {
@@ -87,9 +87,14 @@ class EpisodeStats:
             "progress_after_touch": float(progress),
             # who touched the ball last before a goal against: the policy's own rods, or the opponent's shot
             "own_goal_last_touch": (self.last_toucher or "none") if self.goal == "away" else "",
-            "own_goal_home_rod": (self.last_home_touch_rod or "") if self.goal == "away" and self.last_toucher == "home" else "",
+            "own_goal_home_rod": self._nearest_rod(home_rod_y) if self.goal == "away" and self.last_toucher == "home" else "",
             "task": self.task,
         }
+
+    def _nearest_rod(self, rod_y: dict[str, float]) -> str:
+        """The rod nearest the ball at the last home touch (its name), or "" without one."""
+        y = self.last_home_touch_y
+        return "" if y is None else min(rod_y, key=lambda rod: abs(rod_y[rod] - y))
 
 
 class FoosballEnv(gym.Env):
@@ -179,7 +184,7 @@ class FoosballEnv(gym.Env):
         truncated = (not terminated) and stats.length >= self.config.max_steps
         info: dict[str, Any] = {}
         if terminated or truncated:
-            info["episode_stats"] = stats.summary()
+            info["episode_stats"] = stats.summary(self._home_rod_y)
             if unstable:
                 info["episode_stats"]["unstable"] = 1.0
         obs = self._observe("home") if not unstable else np.zeros(OBS_SIZE, np.float32)
@@ -217,8 +222,7 @@ class FoosballEnv(gym.Env):
         self.stats.touches_home += home - home_before
         self.stats.touches_away += away - away_before
         if home > home_before:
-            y = self.stats.last_home_touch_y = float(self.sim.last_touch_ball_position("home")[1])
-            self.stats.last_home_touch_rod = min(self._home_rod_y, key=lambda rod: abs(self._home_rod_y[rod] - y))
+            self.stats.last_home_touch_y = float(self.sim.last_touch_ball_position("home")[1])
         if home > home_before or away > away_before:
             self.stats.last_toucher = "both" if (home > home_before and away > away_before) else ("home" if home > home_before else "away")
         return goal
