@@ -187,6 +187,9 @@ def test_bad_inputs_give_one_line_errors(run_cli, tmp_path):
     assert "not a saved SB3/SBX model" in one_line_error(run_cli("evaluate", "--policy", str(corrupt), "--episodes", "1"))
     assert "no policy named" in one_line_error(run_cli("evaluate", "--policy", "no_such_policy", "--episodes", "1"))
     assert "no bag" in one_line_error(run_cli("evaluate_bag", str(tmp_path / "nope")))
+    # argparse refuses with its usage, then the error line
+    refused = run_cli("train", "--reward", "paper", "--own-goal-penalty", "5", "--out", str(tmp_path / "t"))
+    assert refused.returncode == 2 and "skill reward only" in refused.stderr.strip().splitlines()[-1]
     not_a_bag = tmp_path / "empty_dir"
     not_a_bag.mkdir()
     one_line_error(run_cli("evaluate_bag", str(not_a_bag)))

@@ -17,7 +17,7 @@ from .curriculum import stage_at, stages
 from .env import make_env
 from .metrics import MetricsWriter, plot_metrics, summarize_tail
 from .policies import algorithm_class
-from .tasks import REWARDS
+from .tasks import REWARDS, make_reward
 
 DESCRIPTION = """\
 Train SAC or TQC for the home team on the foosball twin: SBX (JAX) by default, or stable-baselines3 /
@@ -92,8 +92,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     if args.n_envs <= 0 or args.train_freq <= 0 or args.gradient_steps <= 0:
         p.error("--n-envs, --train-freq and --gradient-steps must be positive")
     check_task_arguments(p, args)
-    if args.own_goal_penalty is not None and (args.reward != "skill" or not args.own_goal_penalty >= 0):
-        p.error("--own-goal-penalty needs --reward skill and a value of at least 0")
+    try:  # the reward's own check, before any env is made
+        make_reward(args.reward, args.own_goal_penalty)
+    except ValueError as problem:
+        p.error(f"--own-goal-penalty: {problem}")
     return args
 
 
