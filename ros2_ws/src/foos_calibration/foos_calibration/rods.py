@@ -272,10 +272,13 @@ def _nuisance_latency(fits: dict, noise2: float, weight: float, team: _Team, dri
     material = _material("latency", float(values["latency"][drive, 0]), team, drive)
     if not _earns(drops) or material:
         return (), {}
-    entry = {"held_out_error_drop_noise_variances": round(float(sum(drops)), 1), "per_fold": [round(float(x), 1) for x in drops],
-             "residual_scatter_over_noise": round(float(np.sqrt(unit / noise2)), 2), "material": False,
-             "fitted_as_nuisance_s": round(float(values["latency"][drive, 0]), 4)}
-    return ("latency",), entry
+    return ("latency",), {**_evidence(drops, unit, noise2, False), "fitted_as_nuisance_s": round(float(values["latency"][drive, 0]), 4)}
+
+
+def _evidence(drops: list[float], unit: float, noise2: float, material: bool) -> dict:
+    """A candidate component's evidence entry on one drive (report.json's per-drive evidence)."""
+    return {"held_out_error_drop_noise_variances": round(float(sum(drops)), 1), "per_fold": [round(float(x), 1) for x in drops],
+            "residual_scatter_over_noise": round(float(np.sqrt(unit / noise2)), 2), "material": bool(material)}
 
 
 def _select_team(team: _Team, progress) -> list[dict]:
@@ -302,11 +305,7 @@ def _select_team(team: _Team, progress) -> list[dict]:
                 rss, values = fits[subset]
                 scale2 = _variance_unit(noise2[d], rss[d], float(team.weight[d].sum()), len(subset))
                 drops = _held_out_drops(current, rss[d], scale2)
-                share = float(values[c][d, 0])
-                entry = {"held_out_error_drop_noise_variances": round(float(sum(drops)), 1),
-                         "per_fold": [round(float(x), 1) for x in drops],
-                         "residual_scatter_over_noise": round(float(np.sqrt(scale2 / noise2[d])), 2),
-                         "material": bool(_material(c, share, team, d))}
+                entry = _evidence(drops, scale2, noise2[d], _material(c, float(values[c][d, 0]), team, d))
                 ok = _earns(drops) and entry["material"]
                 if ok and (best is None or sum(drops) > best[1]):
                     best = (c, sum(drops), subset, entry)
@@ -316,8 +315,8 @@ def _select_team(team: _Team, progress) -> list[dict]:
             c, _, fitted, entry = best
             chosen = tuple(x for x in fitted if x not in nuisance)
             info[c] = {**entry, "named": True}
-        values = fits[_in_order(chosen + nuisance)][1]
-        rss = fits[_in_order(chosen + nuisance)][0][d]
+        rss, values = fits[_in_order(chosen + nuisance)]
+        rss = rss[d]
         scale2 = _variance_unit(noise2[d], rss, float(team.weight[d].sum()), len(chosen))
         out.append({"chosen": chosen, "values": {c: values[c][d] for c in chosen}, "evidence": info, "rss": rss, "scale2": scale2})
     return out
