@@ -113,6 +113,11 @@ def test_evaluate_splits_the_own_goals_by_the_last_touch(run_cli, tmp_path):
     assert sum(by_rod.values()) == pytest.approx(by_touch["home"])
     assert set(by_rod) <= {"home_goalie", "home_defence", "home_midfield", "home_attack"}
     assert "own goals by the last touch: home" in proc.stdout
+    # random actions whirl the rods: some of their touches are spins, and disallowing goals off spins cannot add wins
+    assert 0 < summary["spun_touch_share"] <= 1 and summary["home_turns"] > 1
+    assert summary["own_goals_off_spins"] <= by_touch["home"]
+    assert summary["win_rate_without_spins"] == pytest.approx(summary["win_rate"] - summary["goals_off_spins"])
+    assert "spins (a rod turned over 360 degrees" in proc.stdout
 
 
 def test_paired_difference_resamples_whole_pairs():

@@ -193,6 +193,22 @@ def test_an_own_goal_penalty_changes_only_the_conceded_goal():
         make_reward("skill", own_goal_penalty=-1.0)
 
 
+
+def test_the_spin_penalty_puts_the_skill_reward_under_the_tournament_rule():
+    """A spun home touch costs the penalty and a goal off one pays nothing; without a penalty spins are free."""
+    from foos_policy.tasks import make_reward
+
+    free, ruled = make_reward("skill"), make_reward("skill", spin_penalty=2.0)
+    assert free(0.0, 0.0, None, np.zeros(8), 0.6, spun_touches=3) == 0.0
+    assert ruled(0.0, 0.0, None, np.zeros(8), 0.6, spun_touches=3) == -6.0
+    assert free(0.0, 0.0, "home", np.zeros(8), 0.6, goal_spun=True) == 10.0
+    assert ruled(0.0, 0.0, "home", np.zeros(8), 0.6, goal_spun=True) == 0.0
+    assert ruled(0.0, 0.0, "home", np.zeros(8), 0.6, goal_spun=False) == 10.0
+    with pytest.raises(ValueError, match="skill reward only"):
+        make_reward("paper", spin_penalty=1.0)
+    with pytest.raises(ValueError, match="at least 0"):
+        make_reward("skill", spin_penalty=-1.0)
+
 def test_the_skill_env_pays_the_first_touch_once():
     env = FoosballEnv("paper", "none", reward="skill")
     env.reset(seed=0)

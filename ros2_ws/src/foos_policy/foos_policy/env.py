@@ -24,12 +24,13 @@ from typing import Any, Optional
 import gymnasium as gym
 import numpy as np
 
-from foos_core.names import COMMAND_SIZE
+from foos_core.names import COMMAND_SIZE, JOINT_NAMES, RODS
 from foos_sim.simulation import TableSimulation
 
 from .actions import ACTION_MODES, POSITION_ACTION_LIMIT, PositionTargets
 from .camera_view import CAMERA_LATENCY, POSITION_NOISE, VELOCITY_NOISE, VIEWS, CameraView
 from .observation import ACTION_LIMIT, OBS_SIZE, action_to_command, observe
+from .spins import FULL_TURN, SweepTracker
 from .tasks import make_opponent, make_reset, make_reward
 
 
@@ -46,6 +47,7 @@ class EnvConfig:
     params_file: Optional[str] = None
     reward: str = "paper"               # paper | skill (foos_policy.tasks.REWARDS)
     own_goal_penalty: Optional[float] = None  # the skill reward's, when not its default
+    spin_penalty: Optional[float] = None      # the skill reward's cost of a spun home touch (foos_policy.spins)
     view: str = "camera"                # camera | instant: how the home policy sees the ball (camera_view)
     opponent_view: str = "camera"       # camera | instant: the same for the away team
     camera_latency: float = CAMERA_LATENCY    # s
@@ -65,6 +67,9 @@ class EpisodeStats:
     touches_away: int = 0
     last_home_touch_y: Optional[float] = None
     last_toucher: Optional[str] = None  # home | away | both (began in the same control step) | None
+    home_touches_spun: int = 0          # home touches by a rod that had turned more than a full turn one way (spins)
+    last_home_touch_spun: bool = False
+    home_turns: float = 0.0             # full turns of the four home rods together this episode
     final_y: float = 0.0
     task: str = ""                      # reset/opponent the episode was played on
 
@@ -88,6 +93,11 @@ class EpisodeStats:
             # who touched the ball last before a goal against: the policy's own rods, or the opponent's shot
             "own_goal_last_touch": (self.last_toucher or "none") if self.goal == "away" else "",
             "own_goal_home_rod": self._nearest_rod(home_rod_y) if self.goal == "away" and self.last_toucher == "home" else "",
+            # spins (foos_policy.spins): what a referee would not allow
+            "home_touches_spun": self.home_touches_spun,
+            "own_goal_off_spin": float(self.goal == "away" and self.last_toucher == "home" and self.last_home_touch_spun),
+            "goal_off_spin": float(self.goal == "home" and self.last_toucher == "home" and self.last_home_touch_spun),
+            "home_turns": self.home_turns,
             "task": self.task,
         }
 
@@ -109,7 +119,7 @@ class FoosballEnv(gym.Env):
         self.config = cfg
         self.sim = TableSimulation(cfg.params_file)
         self.reset_task = make_reset(cfg.reset)
-        self.reward_fn = make_reward(cfg.reward, cfg.own_goal_penalty)
+        self.reward_fn = make_reward(cfg.reward, cfg.own_goal_penalty, cfg.spin_penalty)
         if not cfg.control_rate > 0 or 1.0 / cfg.control_rate < self.sim.timestep:
             raise ValueError(f"control_rate {cfg.control_rate} Hz is not within the {1 / self.sim.timestep:.0f} Hz physics")
         self.dt = 1.0 / cfg.control_rate
@@ -134,6 +144,9 @@ class FoosballEnv(gym.Env):
         self.stats = EpisodeStats()
         self._stagnant_count = 0
         self._home_rod_y = {name: float(rod["y"]) for name, rod in self.sim.params["rods"]["layout"].items() if name.startswith("home_")}
+        self._home_rotations = np.array([JOINT_NAMES.index(f"home_{rod}_rotate") for rod in RODS])
+        self._home_rotation_y = np.array([self._home_rod_y[f"home_{rod}"] for rod in RODS])
+        self.sweeps = SweepTracker(np.zeros(len(RODS)))
 
     # --- gymnasium API --------------------------------------------------------------------------
     def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
@@ -145,6 +158,7 @@ class FoosballEnv(gym.Env):
         self.sim.reset(ball_position=position, ball_velocity=velocity,
                        joint_positions=initial_joints() if initial_joints else None)
         self.camera.clear()
+        self.sweeps.reset(self.sim.joint_positions()[self._home_rotations])
         self._film()
         self.stats = EpisodeStats(final_y=float(position[1]), task=f"{self.config.reset}/{self.config.opponent}")
         self._stagnant_count = 0
@@ -165,12 +179,15 @@ class FoosballEnv(gym.Env):
 
         y_before = float(self.sim.ball_position()[1])
         touched_before = self.stats.touches_home > 0
+        spun_before = self.stats.home_touches_spun
         goal = self._advance()
         self._film()
         y_after = float(self.sim.ball_position()[1])
         unstable = not self.sim.state_is_finite()
         first_touch = not touched_before and self.stats.touches_home > 0
-        reward = self.reward_fn(y_before, y_after, goal, a, self.sim.half_length, first_touch=first_touch)
+        reward = self.reward_fn(y_before, y_after, goal, a, self.sim.half_length, first_touch=first_touch,
+                                spun_touches=self.stats.home_touches_spun - spun_before,
+                                goal_spun=self.stats.last_toucher == "home" and self.stats.last_home_touch_spun)
 
         speed = float(np.hypot(*self.sim.ball_velocity()[:2]))
         self._stagnant_count = self._stagnant_count + 1 if speed < self.config.stagnant_speed else 0
@@ -221,8 +238,14 @@ class FoosballEnv(gym.Env):
         home, away = self.sim.figure_touches()
         self.stats.touches_home += home - home_before
         self.stats.touches_away += away - away_before
+        self.sweeps.update(self.sim.joint_positions()[self._home_rotations])
+        self.stats.home_turns = float(self.sweeps.turned.sum() / FULL_TURN)
         if home > home_before:
-            self.stats.last_home_touch_y = float(self.sim.last_touch_ball_position("home")[1])
+            y = float(self.sim.last_touch_ball_position("home")[1])
+            self.stats.last_home_touch_y = y
+            spun = bool(self.sweeps.spinning()[np.argmin(np.abs(self._home_rotation_y - y))])
+            self.stats.last_home_touch_spun = spun
+            self.stats.home_touches_spun += (home - home_before) if spun else 0
         if home > home_before or away > away_before:
             self.stats.last_toucher = "both" if (home > home_before and away > away_before) else ("home" if home > home_before else "away")
         return goal

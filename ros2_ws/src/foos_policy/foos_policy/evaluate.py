@@ -26,7 +26,11 @@ per episode), goals_after_touch, goals_without_touch and no_touch_goal_share = t
 scored with no home touch at all (the serve's inflation), each with a 95 % interval (Wilson for rates,
 normal for means); own_goals_by_last_touch splits the own goals (goals against) by the team that touched
 the ball last (home: off the policy's own rods, then own_goals_by_home_rod says which; away: the opponent's
-shot or clearance; none: untouched since the serve). Episodes use seeds SEED*100003 + i, so two policies with the same --seed and
+shot or clearance; none: untouched since the serve). spun_touch_share is the share of home touches made by a
+rod that had turned more than 360 degrees one way (a spin: illegal in tournament play, foos_policy.spins),
+own_goals_off_spins / goals_off_spins the goals against / for whose last home touch was one,
+win_rate_without_spins the win rate with those goals disallowed, and home_turns the home rods' full turns an
+episode. Episodes use seeds SEED*100003 + i, so two policies with the same --seed and
 --episodes see the same serves.
 
 --transfer-to FILE... plays the same episodes on other tables and prints, for each, the paired change of
@@ -118,6 +122,12 @@ def main(argv=None) -> int:
         by_touch = ", ".join(f"{who} {rate:.2f}" for who, rate in summary["own_goals_by_last_touch"].items() if rate)
         by_rod = ", ".join(f"{rod} {rate:.2f}" for rod, rate in summary["own_goals_by_home_rod"].items())
         print(f"  own goals by the last touch: {by_touch}" + (f" (home rods: {by_rod})" if by_rod else ""))
+    if summary.get("home_turns") is not None:
+        share = summary["spun_touch_share"]
+        print(f"  spins (a rod turned over 360 degrees one way before the touch; illegal in tournament play): "
+              f"{'n/a' if share is None else f'{share:.0%}'} of home touches; goals off spins {summary['goals_off_spins']:.2f} (the win "
+              f"rate without them {summary['win_rate_without_spins']:.2f}), own goals off spins {summary['own_goals_off_spins']:.2f}; "
+              f"the home rods turn {summary['home_turns']:.1f} turns an episode")
     for row in summary.get("transfer", []):
         dw, dl = row["win_difference_ci95"], row["own_goal_difference_ci95"]
         print(f"  on {row['params_file']} ({row['physics']}): win {row['win_rate']:.3f}, change {row['win_difference']:+.3f} "

@@ -118,6 +118,16 @@ def summarize(results: list[dict], extra: Optional[dict] = None) -> dict:
         summary["own_goals_by_last_touch"] = {who: sum(w == who for w in last) / n for who in ("home", "away", "both", "none")}
         rods = [r.get("own_goal_home_rod", "") for r in results if r.get("lose") and r.get("own_goal_last_touch") == "home"]
         summary["own_goals_by_home_rod"] = {rod: rods.count(rod) / n for rod in sorted(set(rods))}
+    # Spins (foos_policy.spins; results written before 28 Nov lack the columns)
+    if all("home_touches_spun" in r for r in results):
+        touches_all = col("touches").sum()
+        summary["spun_touch_share"] = col("home_touches_spun").sum() / touches_all if touches_all else None
+        summary["own_goals_off_spins"] = col("own_goal_off_spin").mean()
+        summary["goals_off_spins"] = col("goal_off_spin").mean()
+        legal = wins - col("goal_off_spin").sum()
+        summary["win_rate_without_spins"] = legal / n
+        summary["win_rate_without_spins_ci95"] = wilson_interval(legal, n)
+        summary["home_turns"] = col("home_turns").mean()
     if extra:
         summary.update(extra)
     return _plain(summary)

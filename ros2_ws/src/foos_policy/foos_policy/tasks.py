@@ -90,7 +90,7 @@ class PaperReward:
     control_cost: float = 1e-4
 
     def __call__(self, y_before: float, y_after: float, goal: Optional[str], action, half_length: float,
-                 first_touch: bool = False) -> float:
+                 first_touch: bool = False, spun_touches: int = 0, goal_spun: bool = False) -> float:
         y_virtual = self.virtual_goal_fraction * half_length
         reward = self.progress_weight * max(y_after - y_before, 0.0)
         reward += self.proximity_weight / (1.0 + abs(y_virtual - y_after))
@@ -113,36 +113,48 @@ class SkillReward:
     sooner that a kick forward was good and that a ball sent back toward its own goal was not. The paper's
     max(dy, 0) pays a ball that goes forward and back again twice. The touch bonus is paid once per episode,
     for the first touch of a home figure: on a resting ball nothing else rewards reaching it.
+
+    With a spin penalty the tournament rule on spins holds (foos_policy.spins): each home touch by a rod that
+    had turned more than a full turn one way costs the penalty, and a home goal off such a touch pays no goal
+    reward, as a referee would not count it. Without it (0, the default) spins are free, as they were.
     """
 
     progress_weight: float = 5.0        # per metre gained toward the opponent's goal
     touch_bonus: float = 0.5
     goal_reward: float = 10.0
     own_goal_penalty: float = 10.0
+    spin_penalty: float = 0.0
 
     def __call__(self, y_before: float, y_after: float, goal: Optional[str], action, half_length: float,
-                 first_touch: bool = False) -> float:
+                 first_touch: bool = False, spun_touches: int = 0, goal_spun: bool = False) -> float:
         reward = self.progress_weight * (y_after - y_before)
         if first_touch:
             reward += self.touch_bonus
+        reward -= self.spin_penalty * spun_touches
         if goal == "home":
-            reward += self.goal_reward
+            if not (self.spin_penalty > 0 and goal_spun):
+                reward += self.goal_reward
         elif goal == "away":
             reward -= self.own_goal_penalty
         return float(reward)
 
 
-def make_reward(name: str, own_goal_penalty: Optional[float] = None):
-    """The named reward; `own_goal_penalty` overrides the skill reward's (the paper's is its goal reward)."""
-    if own_goal_penalty is not None:
+def make_reward(name: str, own_goal_penalty: Optional[float] = None, spin_penalty: Optional[float] = None):
+    """The named reward; `own_goal_penalty` overrides the skill reward's (the paper's is its goal reward), and
+    `spin_penalty` puts the skill reward under the tournament rule on spins."""
+    changes = {}
+    for what, value in (("own-goal penalty", own_goal_penalty), ("spin penalty", spin_penalty)):
+        if value is None:
+            continue
         if name != "skill":
-            raise ValueError(f"an own-goal penalty applies to the skill reward only, not `{name}`")
-        if not own_goal_penalty >= 0:
-            raise ValueError(f"the own-goal penalty must be at least 0, got {own_goal_penalty}")
+            raise ValueError(f"a{'n' if what[0] == 'o' else ''} {what} applies to the skill reward only, not `{name}`")
+        if not value >= 0:
+            raise ValueError(f"the {what} must be at least 0, got {value}")
+        changes[what.split()[0].replace("-", "_") + "_penalty"] = float(value)
     if name == "paper":
         return PaperReward()
     if name == "skill":
-        return SkillReward() if own_goal_penalty is None else SkillReward(own_goal_penalty=float(own_goal_penalty))
+        return SkillReward(**changes)
     raise ValueError(f"unknown reward `{name}` (expected one of {REWARDS})")
 
 

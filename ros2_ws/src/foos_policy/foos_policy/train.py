@@ -58,6 +58,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--own-goal-penalty", type=float, default=None, metavar="R",
                    help="the skill reward's penalty for a goal conceded (default 10, as a goal scored); higher trades "
                         "shots for safety")
+    p.add_argument("--spin-penalty", type=float, default=None, metavar="R",
+                   help="put the skill reward under the tournament rule on spins (foos_policy.spins): each home touch by a "
+                        "rod that had turned over 360 degrees one way costs R, and a goal off one pays nothing (default: "
+                        "spins are free)")
     p.add_argument("--curriculum", action="store_true",
                    help="train first on a resting ball with still away rods (15 %% of the budget), then the task's serve "
                         "with still away rods (15 %%), then the task itself")
@@ -93,9 +97,9 @@ def parse_args(argv=None) -> argparse.Namespace:
         p.error("--n-envs, --train-freq and --gradient-steps must be positive")
     check_task_arguments(p, args)
     try:  # the reward's own check, before any env is made
-        make_reward(args.reward, args.own_goal_penalty)
+        make_reward(args.reward, args.own_goal_penalty, args.spin_penalty)
     except ValueError as problem:
-        p.error(f"--own-goal-penalty: {problem}")
+        p.error(str(problem))
     return args
 
 
@@ -189,7 +193,7 @@ def train(args) -> dict:
     def env_factory(rank: int):
         def make():
             env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward, own_goal_penalty=args.own_goal_penalty,
-                           opponent_delay=args.opponent_delay,
+                           spin_penalty=args.spin_penalty, opponent_delay=args.opponent_delay,
                            view=args.view, opponent_view=args.opponent_view, params_file=args.params_file, action=args.action)
             env.reset(seed=args.seed * 1000 + rank)
             return env
@@ -221,7 +225,8 @@ def train(args) -> dict:
         "name": name, "algo": args.algo, "reset": args.reset, "opponent": args.opponent, "seed": args.seed,
         "steps_requested": args.steps, "time_limit_min": args.time_limit, "steps_done": int(model.num_timesteps),
         "interrupted": interrupted, "wall_s": round(wall, 1), "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 1),
-        "learner": args.learner, "reward": args.reward, "own_goal_penalty": args.own_goal_penalty, "curriculum": args.curriculum,
+        "learner": args.learner, "reward": args.reward, "own_goal_penalty": args.own_goal_penalty,
+        "spin_penalty": args.spin_penalty, "curriculum": args.curriculum,
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
         "params_file": args.params_file, "action": args.action,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
