@@ -106,8 +106,10 @@ def test_leonhart_row():
     found, false = int(fields[6]), int(fields[11])
     # 11 found and 27 false before the candidates were scored on shape, outline and team colour (27 Nov), 26 and 3
     # after (docs/measurements/vision-2026-11-27-stills.md); 24 and 0 once a pick must lead its rivals and be round
-    # (vision-2026-11-28-stills.md). The issue's target is 33 found and 2 wrong.
-    assert found >= 24 and false == 0, row
+    # (vision-2026-11-28-stills.md); 27 and 1 once the light on the rods' lines is taken out (vision-2026-11-28-
+    # stills-2.md: the wrong pick is frame 287's painted penalty spot, at the floor, with the ball not a candidate
+    # and the rod reflections that outscored the spot gone). The issue's target is 33 found and 2 wrong.
+    assert found >= 27 and false <= 1, row
 
 
 @pytest.mark.timeout(180)
