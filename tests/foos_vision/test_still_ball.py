@@ -110,6 +110,21 @@ def test_the_rods_are_found_as_whole_lines():
         assert all(min(abs(u - x / 2) for x in [*RODS_U, 960]) <= 9 for u in on), (row, on)
 
 
+def test_one_line_stands_for_an_edges_fan():
+    # An edge 400 px long across the felt at x = 100 answers in neighbouring Hough cells: a line 1 px over, one turned
+    # by the angle step about the edge's middle (1.7 px off at its ends). One line, the one with the most edge on it,
+    # stands for them; a rod's other edge, 9 px over, is a line of its own.
+    def line(x0, x1, weight):
+        ends = np.array([[x0, 0.0], [x1, 400.0]])
+        theta = math.atan2(x0 - x1, 400.0)  # the normal (cos, sin) of the line through the two ends
+        return (x0 * math.cos(theta), theta, weight, ends)
+
+    step = 200 * math.tan(math.radians(still_ball.ROD_ANGLE_STEP))
+    fan = [line(100, 100, 380), line(101, 101, 300), line(100 - step, 100 + step, 290), line(109, 109, 350)]
+    kept = still_ball._one_line_per_edge(fan)
+    assert [round(w) for _, _, w in kept] == [380, 350], kept
+
+
 def test_a_rods_reflection_does_not_outshine_a_half_hidden_ball():
     # The commonest miss on real tables: a ball at a figure's foot scores less than a perfect disc, and a lamp's
     # reflection on a rod, cut off by a figure, comes near it or beats it. The reflection lies on the rod's lines:

@@ -242,15 +242,7 @@ def _rod_lines(lab: np.ndarray, region: np.ndarray) -> np.ndarray:
         if cover >= ROD_COVER:
             ends = np.array([[xi[on_felt][0], yi[on_felt][0]], [xi[on_felt][-1], yi[on_felt][-1]]], float)
             rods.append((rho, theta, way * cover, ends))
-    # One edge answers in many nearby (rho, theta) cells, fanning out from where it is clearest. The line with the
-    # most edge on it stands for the others that stay within 2 px of it across the felt: each within a pixel of the
-    # same edge pixels (near's tolerance).
-    rods.sort(key=lambda line: -line[2])
-    kept: list = []
-    for line in rods:
-        if all(np.max(np.abs(line[3] @ (math.cos(other[1]), math.sin(other[1])) - other[0])) > 2.0 for other in kept):
-            kept.append(line)
-    rods = [line[:3] for line in kept]
+    rods = _one_line_per_edge(rods)
     if not rods:
         return mask
     # The rods' direction: the mean of the lines' directions, weighted by their edges (angles doubled: a line's
@@ -265,6 +257,18 @@ def _rod_lines(lab: np.ndarray, region: np.ndarray) -> np.ndarray:
         cv2.line(mask, (round(c * r + s * reach), round(s * r - c * reach)),
                  (round(c * r - s * reach), round(s * r + c * reach)), 1, 1)
     return mask
+
+
+def _one_line_per_edge(lines: list) -> list:
+    """(rho, theta, weight) of the lines (rho, theta, weight, ends: their first and last points on the felt) that
+    stand for the others. One edge answers in many nearby (rho, theta) cells, fanning out from where it is clearest
+    (or crossing from one of a rod's close stripes to the next). The line with the most edge on it stands for those
+    that stay within 2 px of it across the felt: each within a pixel (near's tolerance) of the same edge pixels."""
+    kept: list = []
+    for line in sorted(lines, key=lambda line: -line[2]):
+        if all(np.max(np.abs(line[3] @ (math.cos(other[1]), math.sin(other[1])) - other[0])) > 2.0 for other in kept):
+            kept.append(line)
+    return [line[:3] for line in kept]
 
 
 def _offsets(radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
