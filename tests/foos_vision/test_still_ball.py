@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
+from foos_vision.detection import still_ball
 from foos_vision.detection.still_ball import MIN_LEAD, MIN_SCORE, TEAM_BALLS, StillBallFinder
 
 
@@ -63,6 +64,84 @@ def test_a_rods_highlight_against_a_figure_is_not_round():
     ball = min(candidates, key=lambda c: math.hypot(c.u - 1200, c.v - 500))
     reflection = [c for c in candidates if abs(c.v - 760) < 25 and 580 < c.u < 730]
     assert reflection and ball.rim >= 0.9 and max(c.rim for c in reflection) <= 0.75, (ball, reflection)
+
+
+# Eight steel rods (16 mm: 18 px) across the field's width, 150 mm apart, past the felt on both sides, as on a table.
+RODS_U = sorted(960 + side * d for d in (87, 261, 435, 609) for side in (-1, 1))
+
+
+def rods_still(ball=(1134, 500), foot=True):
+    """drawn_still with rods, a lamp's reflection on one rod cut off by a dark figure (32 px across: wider than the
+    rod, near the ball's 40), and a ball between two rods, its upper right hidden by a figure's foot (foot=True)."""
+    frame = drawn_still(ball=None)
+    for u in RODS_U:
+        cv2.rectangle(frame, (u - 9, 0), (u + 9, 1079), (150, 150, 150), -1)
+        for edge in (u - 9, u + 9):
+            cv2.line(frame, (edge, 0), (edge, 1079), (60, 60, 60), 2)
+    rod = RODS_U[4]
+    cv2.ellipse(frame, (rod, 700), (16, 40), 0, 0, 360, (250, 250, 250), -1, cv2.LINE_AA)
+    cv2.rectangle(frame, (rod - 22, 660), (rod + 22, 690), (25, 25, 25), -1)
+    if ball is not None:
+        cv2.circle(frame, ball, 20, (235, 235, 235), -1, cv2.LINE_AA)
+        if foot:
+            cv2.rectangle(frame, (ball[0] + 4, ball[1] - 30), (ball[0] + 34, ball[1] + 2), (25, 25, 25), -1)
+    return cv2.GaussianBlur(frame, (5, 5), 1.0)
+
+
+def test_the_rods_are_found_as_whole_lines():
+    frame = rods_still(ball=None)
+    # A painted line along the field's length, across the rods: straight and across the felt, but not a rod.
+    cv2.line(frame, (260, 820), (1660, 820), (240, 240, 240), 6)
+    for u in RODS_U:
+        cv2.rectangle(frame, (u - 8, 810), (u + 8, 830), (150, 150, 150), -1)
+    small = cv2.resize(frame, (still_ball.WORK_WIDTH, 540), interpolation=cv2.INTER_AREA)
+    lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab)
+    _, region = StillBallFinder()._felt(lab, 0.5)
+    rods = still_ball._rod_lines(lab, region)
+    for row in (150, 270, 400):  # across the felt, above and below the reflection
+        on = np.flatnonzero(rods[row])
+        assert all(np.any(np.abs(on - u / 2) <= 6) for u in RODS_U), (row, on)  # each rod has a line on it
+    # Every line found lies within a rod's width (9 work px) of a rod's axis or of the painted centre line, parallel
+    # to them (the rods' edges are 4.5 px off the axis, and lines within half a degree of them fan out by a few px).
+    # The felt's long edges and the painted line along the field are straight lines across the felt too, but not in
+    # the rods' direction.
+    for row in (73, 150, 270, 400, 410, 467):
+        on = np.flatnonzero(rods[row])
+        assert all(min(abs(u - x / 2) for x in [*RODS_U, 960]) <= 9 for u in on), (row, on)
+
+
+def test_one_line_stands_for_an_edges_fan():
+    # An edge 400 px long across the felt at x = 100 answers in neighbouring Hough cells: a line 1 px over, one turned
+    # by the angle step about the edge's middle (1.7 px off at its ends). One line, the one with the most edge on it,
+    # stands for them; a rod's other edge, 9 px over, is a line of its own.
+    def line(x0, x1, weight):
+        ends = np.array([[x0, 0.0], [x1, 400.0]])
+        theta = math.atan2(x0 - x1, 400.0)  # the normal (cos, sin) of the line through the two ends
+        return (x0 * math.cos(theta), theta, weight, ends)
+
+    step = 200 * math.tan(math.radians(still_ball.ROD_ANGLE_STEP))
+    fan = [line(100, 100, 380), line(101, 101, 300), line(100 - step, 100 + step, 290), line(109, 109, 350)]
+    kept = still_ball._one_line_per_edge(fan)
+    assert [round(w) for _, _, w in kept] == [380, 350], kept
+
+
+def test_a_rods_reflection_does_not_outshine_a_half_hidden_ball():
+    # The commonest miss on real tables: a ball at a figure's foot scores less than a perfect disc, and a lamp's
+    # reflection on a rod, cut off by a figure, comes near it or beats it. The reflection lies on the rod's lines:
+    # their light is taken out, and the ball leads.
+    frame = rods_still()
+    finder = StillBallFinder()
+    field, ball = finder.ball(frame)
+    assert ball is not None and math.hypot(ball.u - 1134, ball.v - 500) < 5, finder.find(frame)[1][:3]
+    reflection = [c for c in finder.find(frame)[1] if abs(c.u - RODS_U[4]) < 25 and abs(c.v - 700) < 45]
+    assert all(c.score <= ball.score - MIN_LEAD for c in reflection), (ball, reflection)
+
+
+def test_a_ball_touching_a_rod_is_found():
+    # A ball beside a rod, touching it, lies off the rod's axis: its light is kept.
+    frame = rods_still(ball=(RODS_U[5] - 9 - 20, 400), foot=False)
+    _, ball = StillBallFinder().ball(frame)
+    assert ball is not None and math.hypot(ball.u - (RODS_U[5] - 29), ball.v - 400) < 5, ball
 
 
 def test_two_balls_alike_are_a_guess_not_a_pick():

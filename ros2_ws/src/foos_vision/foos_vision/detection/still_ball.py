@@ -18,6 +18,12 @@ light above the felt counts). Each is scored on what only a ball has all of:
 - its colour is its own: figures wear a team's colour, one colour on a dozen bodies across the field, while the
   ball is one ball's area of its colour. A candidate whose (chromatic) colour covers several balls' worth of the
   field is a figure.
+Before the filter, the light on the rods is taken out. A lamp's reflection on a steel rod, cut off by a figure on the
+rod, is as wide, light and round as a ball, but it lies on the rod's axis, where a ball (even one touching the rod)
+does not. The rods are found as a family: the straight lines that cross the felt with an edge along most of the way
+(the rods' edges and their sheen, whole lines found by a Hough transform, not segments), in the direction most of
+them share (the rods are parallel; perspective turns them a few degrees). The light on those lines, one pixel wide
+each, is set to none; a painted line parallel to the rods goes too, which is no ball either.
 The best candidate is the ball when its score reaches MIN_SCORE and it leads every candidate more than a ball's width
 away by MIN_LEAD: two things in a frame that look as much like a ball as each other make the pick a guess, and a
 wrong ball costs more than none (the frame then has no ball to report).
@@ -58,6 +64,10 @@ MIN_EDGE = 4.0  # L levels per px: an edge (Sobel of the lightly smoothed L, per
 CHROMATIC = 20.0  # Lab a/b levels from grey: a colour (a team's), not white, grey or black
 TEAM_TOL = 8  # Lab a/b levels: the same colour
 TEAM_BALLS = 4.0  # a colour covering this many balls' areas of the field is half way to a team's (score halved)
+ROD_SPAN = 0.5  # of the felt's short side: a rod's line crosses at least this much of the felt (the field's width)
+ROD_COVER = 0.5  # of its way across the felt with an edge on the line: figures on the rod hide the rest
+ROD_TURN = 10.0  # degrees from the rods' common direction: perspective turns parallel rods this much at most
+ROD_ANGLE_STEP = 0.5  # degrees: the Hough transform's angle resolution (at most 4 px off over a 500 px rod)
 MIN_SCORE = 0.6  # below this the best candidate is not reported: nothing in the frame is clearly a ball
 MIN_LEAD = 0.1  # the best's score over the next best's more than a ball's width away: less, and the pick is a guess
 
@@ -158,6 +168,7 @@ class StillBallFinder:
             return None, []
         r = field.ball_radius_px * scale
         lighter = _lighter_than_felt(small, lab, r)
+        lighter[_rod_lines(lab, region) > 0] = 0.0
         contrast, radius = _disc_filter(lighter, r)
         size = max(3, int(r) | 1)
         # The felt's colour changes where a lamp lights or a wall shades its ends: the felt found can stop short of
@@ -198,6 +209,66 @@ def _lighter_than_felt(small: np.ndarray, lab: np.ndarray, r: float) -> np.ndarr
     around = cv2.resize(cv2.cvtColor(coarse, cv2.COLOR_BGR2Lab)[..., 0], (light.shape[1], light.shape[0]),
                         interpolation=cv2.INTER_LINEAR).astype(np.float32)
     return np.clip(light - around, 0.0, None)
+
+
+def _rod_lines(lab: np.ndarray, region: np.ndarray) -> np.ndarray:
+    """A mask of the rods' lines (1 on them, each one pixel wide): the straight lines that cross the felt for at least
+    ROD_SPAN of its short side with an edge on at least ROD_COVER of that way, within ROD_TURN of the direction most
+    such lines share."""
+    light = cv2.GaussianBlur(lab[..., 0], (0, 0), 1.0)
+    # The edges the rim uses (MIN_EDGE per px; a 3x3 Sobel answers 8 per level per px), hysteresis up to twice that.
+    edges = cv2.Canny(light, 8 * MIN_EDGE, 16 * MIN_EDGE)
+    mask = np.zeros(region.shape, np.uint8)
+    (_, _), (rw, rh), _ = cv2.minAreaRect(cv2.findNonZero(region))
+    least = ROD_SPAN * min(rw, rh)
+    lines = cv2.HoughLines(edges, 1, math.radians(ROD_ANGLE_STEP), max(1, int(least)))
+    if lines is None:
+        return mask
+    # An edge within a pixel of the line is on it (the line's angle is quantised).
+    near = cv2.dilate(edges, np.ones((3, 3), np.uint8))
+    h, w = region.shape
+    along = np.arange(-math.hypot(h, w), math.hypot(h, w))
+    rods = []
+    for rho, theta in lines[:, 0]:
+        x = np.rint(math.cos(theta) * rho - math.sin(theta) * along).astype(int)
+        y = np.rint(math.sin(theta) * rho + math.cos(theta) * along).astype(int)
+        inside = (x >= 0) & (x < w) & (y >= 0) & (y < h)
+        xi, yi = x[inside], y[inside]
+        on_felt = region[yi, xi] > 0
+        way = np.count_nonzero(on_felt)
+        if way < least:
+            continue
+        cover = np.count_nonzero(near[yi[on_felt], xi[on_felt]]) / way
+        if cover >= ROD_COVER:
+            ends = np.array([[xi[on_felt][0], yi[on_felt][0]], [xi[on_felt][-1], yi[on_felt][-1]]], float)
+            rods.append((rho, theta, way * cover, ends))
+    rods = _one_line_per_edge(rods)
+    if not rods:
+        return mask
+    # The rods' direction: the mean of the lines' directions, weighted by their edges (angles doubled: a line's
+    # direction is the same at theta and theta + 180 degrees).
+    rho, theta, weight = (np.array(column) for column in zip(*rods))
+    common = 0.5 * math.atan2(float(np.sum(weight * np.sin(2 * theta))), float(np.sum(weight * np.cos(2 * theta))))
+    family = np.abs((theta - common + math.pi / 2) % math.pi - math.pi / 2) <= math.radians(ROD_TURN)
+    rho, theta = rho[family], theta[family]
+    reach = 2 * int(math.hypot(h, w))
+    for r, t in zip(rho, theta):
+        c, s = math.cos(t), math.sin(t)
+        cv2.line(mask, (round(c * r + s * reach), round(s * r - c * reach)),
+                 (round(c * r - s * reach), round(s * r + c * reach)), 1, 1)
+    return mask
+
+
+def _one_line_per_edge(lines: list) -> list:
+    """(rho, theta, weight) of the lines (rho, theta, weight, ends: their first and last points on the felt) that
+    stand for the others. One edge answers in many nearby (rho, theta) cells, fanning out from where it is clearest
+    (or crossing from one of a rod's close stripes to the next). The line with the most edge on it stands for those
+    that stay within 2 px of it across the felt: each within a pixel (near's tolerance) of the same edge pixels."""
+    kept: list = []
+    for line in sorted(lines, key=lambda line: -line[2]):
+        if all(np.max(np.abs(line[3] @ (math.cos(other[1]), math.sin(other[1])) - other[0])) > 2.0 for other in kept):
+            kept.append(line)
+    return [line[:3] for line in kept]
 
 
 def _offsets(radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
