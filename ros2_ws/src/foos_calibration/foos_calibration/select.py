@@ -264,13 +264,13 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray, ge
             if new_dent:
                 fold_drops = dent_held_out_drops(segments, current.theta, candidate.theta, scale2)
                 info["per_roll_over_the_dent"] = [round(float(d), 1) for d in fold_drops]
-                supported = (sum(d > 0 for d in fold_drops) >= 2 and _consistent(fold_drops)
-                             and sum(fold_drops) >= MIN_EVIDENCE)
+                consistent = _consistent(fold_drops)
+                supported = sum(d > 0 for d in fold_drops) >= 2 and consistent and sum(fold_drops) >= MIN_EVIDENCE
                 # A roll that the other rolls' dent predicts worse is held-out evidence against the dent: alternate
                 # frames, the route for dents too few rolls cross to check one against the others, cannot overrule it
                 # (a nominal 204 fps game: one roll at -82.7 noise variances, and 218 on alternate frames of the rolls).
-                info["contradicted_by_a_roll"] = not _consistent(fold_drops)
-                if not supported and not info["contradicted_by_a_roll"]:
+                info["contradicted_by_a_roll"] = not consistent
+                if not supported and consistent:
                     # Too few rolls to check one against the others: alternate frames, at a higher bar.
                     frame_drops = dent_frame_split_drops(segments, current.theta, candidate.theta, scale2, geometry)
                     info["per_frame_half"] = [round(float(d), 1) for d in frame_drops]

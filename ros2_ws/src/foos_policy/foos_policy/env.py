@@ -66,15 +66,20 @@ class EpisodeStats:
     touches_home: int = 0
     touches_away: int = 0
     last_home_touch_y: Optional[float] = None
+    last_home_touch_rod: Optional[str] = None  # the home rod nearest the ball when home last began touching it
     last_toucher: Optional[str] = None  # home | away | both (began in the same control step) | None
     home_touches_spun: int = 0          # home touches by a rod that had turned more than a full turn one way (spins)
     last_home_touch_spun: bool = False
-    home_turns: float = 0.0             # full turns of the four home rods together this episode
+    home_turns: float = 0.0             # full turns of the four home rods together, set when the episode ends
     final_y: float = 0.0
     task: str = ""                      # reset/opponent the episode was played on
 
-    def summary(self, home_rod_y: dict[str, float]) -> dict[str, Any]:
-        """The episode's figures; `home_rod_y` (home rod name -> y) names the rod of the last home touch."""
+    @property
+    def last_touch_spun(self) -> bool:
+        """Whether the ball's last touch was a home spin (a home goal then does not count under the rule)."""
+        return self.last_toucher == "home" and self.last_home_touch_spun
+
+    def summary(self) -> dict[str, Any]:
         touched = self.touches_home > 0
         progress = (self.final_y - self.last_home_touch_y) if self.last_home_touch_y is not None else 0.0
         return {
@@ -92,19 +97,14 @@ class EpisodeStats:
             "progress_after_touch": float(progress),
             # who touched the ball last before a goal against: the policy's own rods, or the opponent's shot
             "own_goal_last_touch": (self.last_toucher or "none") if self.goal == "away" else "",
-            "own_goal_home_rod": self._nearest_rod(home_rod_y) if self.goal == "away" and self.last_toucher == "home" else "",
+            "own_goal_home_rod": (self.last_home_touch_rod or "") if self.goal == "away" and self.last_toucher == "home" else "",
             # spins (foos_policy.spins): what a referee would not allow
             "home_touches_spun": self.home_touches_spun,
-            "own_goal_off_spin": float(self.goal == "away" and self.last_toucher == "home" and self.last_home_touch_spun),
-            "goal_off_spin": float(self.goal == "home" and self.last_toucher == "home" and self.last_home_touch_spun),
+            "own_goal_off_spin": float(self.goal == "away" and self.last_touch_spun),
+            "goal_off_spin": float(self.goal == "home" and self.last_touch_spun),
             "home_turns": self.home_turns,
             "task": self.task,
         }
-
-    def _nearest_rod(self, rod_y: dict[str, float]) -> str:
-        """The rod nearest the ball at the last home touch (its name), or "" without one."""
-        y = self.last_home_touch_y
-        return "" if y is None else min(rod_y, key=lambda rod: abs(rod_y[rod] - y))
 
 
 class FoosballEnv(gym.Env):
@@ -143,9 +143,10 @@ class FoosballEnv(gym.Env):
 
         self.stats = EpisodeStats()
         self._stagnant_count = 0
-        self._home_rod_y = {name: float(rod["y"]) for name, rod in self.sim.params["rods"]["layout"].items() if name.startswith("home_")}
-        self._home_rotations = np.array([JOINT_NAMES.index(f"home_{rod}_rotate") for rod in RODS])
-        self._home_rotation_y = np.array([self._home_rod_y[f"home_{rod}"] for rod in RODS])
+        # The home rods in RODS order: their names, y and rotation joints (a touch is put down to the nearest rod)
+        self._home_rods = [f"home_{rod}" for rod in RODS]
+        self._home_rod_y = np.array([float(self.sim.params["rods"]["layout"][name]["y"]) for name in self._home_rods])
+        self._home_rotations = np.array([JOINT_NAMES.index(f"{name}_rotate") for name in self._home_rods])
         self.sweeps = SweepTracker(np.zeros(len(RODS)))
 
     # --- gymnasium API --------------------------------------------------------------------------
@@ -187,7 +188,7 @@ class FoosballEnv(gym.Env):
         first_touch = not touched_before and self.stats.touches_home > 0
         reward = self.reward_fn(y_before, y_after, goal, a, self.sim.half_length, first_touch=first_touch,
                                 spun_touches=self.stats.home_touches_spun - spun_before,
-                                goal_spun=self.stats.last_toucher == "home" and self.stats.last_home_touch_spun)
+                                goal_spun=self.stats.last_touch_spun)
 
         speed = float(np.hypot(*self.sim.ball_velocity()[:2]))
         self._stagnant_count = self._stagnant_count + 1 if speed < self.config.stagnant_speed else 0
@@ -201,7 +202,8 @@ class FoosballEnv(gym.Env):
         truncated = (not terminated) and stats.length >= self.config.max_steps
         info: dict[str, Any] = {}
         if terminated or truncated:
-            info["episode_stats"] = stats.summary(self._home_rod_y)
+            stats.home_turns = float(self.sweeps.turned.sum() / FULL_TURN)
+            info["episode_stats"] = stats.summary()
             if unstable:
                 info["episode_stats"]["unstable"] = 1.0
         obs = self._observe("home") if not unstable else np.zeros(OBS_SIZE, np.float32)
@@ -239,12 +241,11 @@ class FoosballEnv(gym.Env):
         self.stats.touches_home += home - home_before
         self.stats.touches_away += away - away_before
         self.sweeps.update(self.sim.joint_positions()[self._home_rotations])
-        self.stats.home_turns = float(self.sweeps.turned.sum() / FULL_TURN)
         if home > home_before:
-            y = float(self.sim.last_touch_ball_position("home")[1])
-            self.stats.last_home_touch_y = y
-            spun = bool(self.sweeps.spinning()[np.argmin(np.abs(self._home_rotation_y - y))])
-            self.stats.last_home_touch_spun = spun
+            y = self.stats.last_home_touch_y = float(self.sim.last_touch_ball_position("home")[1])
+            rod = int(np.argmin(np.abs(self._home_rod_y - y)))
+            self.stats.last_home_touch_rod = self._home_rods[rod]
+            spun = self.stats.last_home_touch_spun = bool(self.sweeps.spinning()[rod])
             self.stats.home_touches_spun += (home - home_before) if spun else 0
         if home > home_before or away > away_before:
             self.stats.last_toucher = "both" if (home > home_before and away > away_before) else ("home" if home > home_before else "away")

@@ -143,14 +143,15 @@ def make_reward(name: str, own_goal_penalty: Optional[float] = None, spin_penalt
     """The named reward; `own_goal_penalty` overrides the skill reward's (the paper's is its goal reward), and
     `spin_penalty` puts the skill reward under the tournament rule on spins."""
     changes = {}
-    for what, value in (("own-goal penalty", own_goal_penalty), ("spin penalty", spin_penalty)):
+    for field, article, what, value in (("own_goal_penalty", "an", "own-goal penalty", own_goal_penalty),
+                                        ("spin_penalty", "a", "spin penalty", spin_penalty)):
         if value is None:
             continue
         if name != "skill":
-            raise ValueError(f"a{'n' if what[0] == 'o' else ''} {what} applies to the skill reward only, not `{name}`")
+            raise ValueError(f"{article} {what} applies to the skill reward only, not `{name}`")
         if not value >= 0:
             raise ValueError(f"the {what} must be at least 0, got {value}")
-        changes[what.split()[0].replace("-", "_") + "_penalty"] = float(value)
+        changes[field] = float(value)
     if name == "paper":
         return PaperReward()
     if name == "skill":
