@@ -1,4 +1,5 @@
-"""What a policy's action asks of the rods: the paper's velocities, or position targets (ROS-free).
+"""What a policy's action asks of the rods: the paper's velocities, position targets, or corrections to the
+scripted controller (ROS-free).
 
 - `velocity`: the paper's action box [-20, 20]^8, each entry a share of its drive's command limit (the
   contract's velocity command, scaled).
@@ -6,6 +7,10 @@
   a rotation target (a share of pi, 0 = figures hanging down). At each control step a braking-curve
   controller (PositionTargets) turns the targets into the paper's velocity action, so policy_node, the bag
   and the contract still carry velocity commands, and evaluation and play use one code path.
+- `residual`: corrections to the scripted controller (foos_policy.scripted, the baseline that tracks the
+  ball and kicks): per own rod an offset of the slide target it holds, in metres (at most 40 mm), and of the
+  angle it holds the figures at, in radians (at most a quarter turn), followed with its own gains
+  (ScriptedResidual). An action of zero plays the scripted controller itself.
 
 Why position targets: a robot table's rods (TU Darmstadt's, Jaykixx/Foosball) are driven to positions by
 their own jerk-limited servo loop. On those drives a velocity action is hard to learn with: a constant action
@@ -20,10 +25,26 @@ import numpy as np
 from foos_core.names import RODS
 
 from .observation import ACTION_LIMIT, OWN_SLOT
-from .scripted import own_rod_geometry
+from .scripted import ROTATE_GAIN as SCRIPTED_ROTATE_GAIN
+from .scripted import SLIDE_GAIN as SCRIPTED_SLIDE_GAIN
+from .scripted import ScriptedPolicy, own_rod_geometry
 
-ACTION_MODES = ("velocity", "position")
+ACTION_MODES = ("velocity", "position", "residual")
 POSITION_ACTION_LIMIT = 1.0
+
+# Why corrections to the scripted controller: the velocity policies learned to whirl their rods (about 300
+# turns an episode, 89-91 % of their touches spun; docs/measurements/policy-2026-11-28-spins.md), so half
+# their goals would not count and their own blocks turn into own goals, and position targets learned too little
+# in the budget. A correction starts from the scripted controller's play (it tracks the ball and kicks) and can
+# aim, time and place it: it moves the targets the scripted controller holds each rod at, its slide by up to
+# 40 mm (where a figure meets the ball, so which way the ball goes) and its figures' angle by up to a quarter
+# turn (a block's posture, a back-swing before the kick), through the scripted controller's own gains.
+# Targets, not velocities: a velocity added to the scripted hold (a fifth of the rotation limit, 63 rad/s) spun
+# the rods 111-134 turns an episode, as the drive's lag let every 20 ms step carry the figures over a radian past
+# the hold before it answered; a target a quarter turn off is held.
+RESIDUAL_SLIDE_OFFSET = 0.04          # m
+RESIDUAL_ROTATE_OFFSET = np.pi / 2    # rad
+RESIDUAL_ACTION_HIGH = np.tile([RESIDUAL_SLIDE_OFFSET, RESIDUAL_ROTATE_OFFSET], len(RODS))
 
 # The braking curve: the speed from which a jerk-limited axis (from zero acceleration) can still stop within
 # the distance e is (jerk e^2)^(1/3); above the acceleration limit's sqrt(acceleration e) it is capped by that.
@@ -40,16 +61,38 @@ SLIDE_GAIN = 16.0    # 1/s
 ROTATE_GAIN = 24.0   # 1/s
 
 
-def action_mode_of(action_high) -> str:
+def action_high(mode: str) -> np.ndarray:
+    """The upper bound of the 8-D action box of an action mode (the box is symmetric)."""
+    if mode == "velocity":
+        return np.full(len(RESIDUAL_ACTION_HIGH), ACTION_LIMIT)
+    if mode == "position":
+        return np.full(len(RESIDUAL_ACTION_HIGH), POSITION_ACTION_LIMIT)
+    if mode == "residual":
+        return RESIDUAL_ACTION_HIGH.copy()
+    raise ValueError(f"action must be one of {', '.join(ACTION_MODES)}, got '{mode}'")
+
+
+def action_mode_of(action_high_saved) -> str:
     """A saved policy's action mode, read from the upper bound of its action box: the one place a trained
-    model says which actions it emits (velocity 20, position 1)."""
-    high = np.asarray(action_high, dtype=float).ravel()
-    if high.size and np.allclose(high, ACTION_LIMIT):
-        return "velocity"
-    if high.size and np.allclose(high, POSITION_ACTION_LIMIT):
-        return "position"
+    model says which actions it emits (velocity 20, position 1, residual 0.04 m / pi/2 per slide / rotation)."""
+    high = np.asarray(action_high_saved, dtype=float).ravel()
+    for mode in ACTION_MODES:
+        if high.size == len(RESIDUAL_ACTION_HIGH) and np.allclose(high, action_high(mode)):
+            return mode
     raise ValueError(f"an action box bounded by {high.max() if high.size else 'nothing'} is neither velocities "
-                     f"([-{ACTION_LIMIT:g}, {ACTION_LIMIT:g}]) nor position targets ([-1, 1])")
+                     f"([-{ACTION_LIMIT:g}, {ACTION_LIMIT:g}]), position targets ([-1, 1]) nor corrections to the "
+                     f"scripted controller's targets ({RESIDUAL_SLIDE_OFFSET:g} m, {RESIDUAL_ROTATE_OFFSET:.4g} rad)")
+
+
+def action_map(mode: str, params: dict, command_limits):
+    """What turns an action of `mode` into the paper's velocity action at each control step (an object with
+    `velocity_action(obs, action)`), or None where the action is that already."""
+    if mode == "position":
+        return PositionTargets(params, command_limits)
+    if mode == "residual":
+        return ScriptedResidual(params, command_limits)
+    action_high(mode)  # an unknown mode is refused here
+    return None
 
 
 class PositionTargets:
@@ -84,3 +127,20 @@ class PositionTargets:
                                    np.sqrt(self.acceleration * distance), self.gain * distance])
         command = np.sign(error) * np.minimum(speed, self.limits)
         return (command / self.limits * ACTION_LIMIT).astype(np.float32)
+
+
+class ScriptedResidual:
+    """Target offsets (metres, radians) -> the scripted controller's velocity action with its slide and rotation
+    targets moved by them, one control step at a time, from the same own-view observation the policy acts on
+    (the ball as the camera loop delivers it, the own rods from their encoders). While a rod kicks, its rotation
+    command is the drive's limit and the offset changes it only where it turns against the kick."""
+
+    def __init__(self, params: dict, command_limits):
+        self.scripted = ScriptedPolicy(params, command_limits)
+        self.limits = np.asarray(command_limits, dtype=float)
+        self.gain = np.tile([SCRIPTED_SLIDE_GAIN, SCRIPTED_ROTATE_GAIN], len(RODS))
+
+    def velocity_action(self, obs, action) -> np.ndarray:
+        offset = np.clip(np.asarray(action, dtype=float).ravel(), -RESIDUAL_ACTION_HIGH, RESIDUAL_ACTION_HIGH)
+        command = self.scripted.predict(obs) + self.gain * offset / self.limits * ACTION_LIMIT
+        return np.clip(command, -ACTION_LIMIT, ACTION_LIMIT).astype(np.float32)

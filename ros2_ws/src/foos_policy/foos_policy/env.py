@@ -10,7 +10,8 @@ control_rate). The episode ends at the control step in which the simulation repo
 rod-ball touch is counted: the simulation counts the touches of each team's figures as they begin.
 
 The home action is the paper's velocity action, or with `action="position"` rod position targets in
-[-1, 1]^8 that foos_policy.actions turns into it at each step.
+[-1, 1]^8, or with `action="residual"` corrections to the scripted controller, that foos_policy.actions turns
+into it at each step.
 
 Both teams see the ball as a real table's camera loop delivers it (foos_policy.camera_view: 40 ms late,
 1.5 mm and 0.05 m/s of noise), and their own rods' joints at once; `view` / `opponent_view` "instant" give
@@ -27,7 +28,7 @@ import numpy as np
 from foos_core.names import COMMAND_SIZE, JOINT_NAMES, RODS
 from foos_sim.simulation import TableSimulation
 
-from .actions import ACTION_MODES, POSITION_ACTION_LIMIT, PositionTargets
+from .actions import action_high, action_map
 from .camera_view import CAMERA_LATENCY, POSITION_NOISE, VELOCITY_NOISE, VIEWS, CameraView
 from .observation import ACTION_LIMIT, OBS_SIZE, action_to_command, observe
 from .spins import FULL_TURN, SweepTracker
@@ -52,7 +53,7 @@ class EnvConfig:
     opponent_view: str = "camera"       # camera | instant: the same for the away team
     camera_latency: float = CAMERA_LATENCY    # s
     camera_noise: float = POSITION_NOISE      # m per axis; the velocity's noise is VELOCITY_NOISE while this is > 0
-    action: str = "velocity"            # velocity | position: what the home action asks of the rods (foos_policy.actions)
+    action: str = "velocity"            # velocity | position | residual: what the home action asks of the rods (foos_policy.actions)
 
 
 @dataclass
@@ -133,13 +134,12 @@ class FoosballEnv(gym.Env):
         self.camera = CameraView(cfg.camera_latency, cfg.camera_noise, VELOCITY_NOISE if cfg.camera_noise > 0 else 0.0)
         self._views = {"home": cfg.view, "away": cfg.opponent_view}
 
-        if cfg.action not in ACTION_MODES:
-            raise ValueError(f"action must be one of {', '.join(ACTION_MODES)}, got '{cfg.action}'")
-        self.targets = PositionTargets(self.sim.params, self.sim.command_limits) if cfg.action == "position" else None
-        limit = POSITION_ACTION_LIMIT if self.targets else ACTION_LIMIT
+        high = action_high(cfg.action).astype(np.float32)
+        self.action_map = action_map(cfg.action, self.sim.params, self.sim.command_limits)
 
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
-        self.action_space = gym.spaces.Box(-limit, limit, (COMMAND_SIZE,), np.float32)
+        self.action_space = gym.spaces.Box(-high, high, (COMMAND_SIZE,), np.float32)
+        self._home_obs = np.zeros(OBS_SIZE, np.float32)  # what the home policy saw last: its action answers it
 
         self.stats = EpisodeStats()
         self._stagnant_count = 0
@@ -163,13 +163,12 @@ class FoosballEnv(gym.Env):
         self._film()
         self.stats = EpisodeStats(final_y=float(position[1]), task=f"{self.config.reset}/{self.config.opponent}")
         self._stagnant_count = 0
-        return self._observe("home"), {}
+        self._home_obs = self._observe("home")
+        return self._home_obs, {}
 
     def step(self, action):
-        if self.targets is not None:  # position targets -> this step's velocity action, from the own rods' encoders
-            sim = self.sim
-            own = observe("home", sim.ball_position(), sim.ball_velocity(), sim.joint_positions(), sim.joint_velocities())
-            action = self.targets.velocity_action(own, action)
+        if self.action_map is not None:  # position targets or corrections -> this step's velocity action
+            action = self.action_map.velocity_action(self._home_obs, action)
         a = np.clip(np.asarray(action, dtype=np.float64).ravel(), -ACTION_LIMIT, ACTION_LIMIT)
         self.sim.set_command("home", action_to_command("home", a, self.sim.command_limits))
         away = self.opponent.act(self._observe("away"))
@@ -206,7 +205,7 @@ class FoosballEnv(gym.Env):
             info["episode_stats"] = stats.summary()
             if unstable:
                 info["episode_stats"]["unstable"] = 1.0
-        obs = self._observe("home") if not unstable else np.zeros(OBS_SIZE, np.float32)
+        obs = self._home_obs = self._observe("home") if not unstable else np.zeros(OBS_SIZE, np.float32)
         return obs, reward, terminated, truncated, info
 
     def set_task(self, reset: Optional[str] = None, opponent: Optional[str] = None) -> None:

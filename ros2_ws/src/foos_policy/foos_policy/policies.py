@@ -13,7 +13,7 @@ from foos_core.names import COMMAND_SIZE
 from foos_core.table_params import load_params
 from foos_sim import command_limits as params_command_limits
 
-from .actions import PositionTargets, action_mode_of
+from .actions import action_map, action_mode_of
 from .observation import ACTION_LIMIT
 from .scripted import ScriptedPolicy
 
@@ -137,8 +137,8 @@ class ScriptedBaseline(Policy):
 
 
 class ModelPolicy(Policy):
-    """A trained SAC/TQC model. One trained on position targets (its action box is [-1, 1]) is followed by the
-    controller that turns them into velocity actions on the table `params` describes."""
+    """A trained SAC/TQC model. One trained on position targets or on corrections to the scripted controller (its
+    action box says which) is followed by what turns them into velocity actions on the table `params` describes."""
 
     def __init__(self, spec: str | Path, params: Optional[dict] = None, command_limits=None):
         self.path = resolve_policy(str(spec))
@@ -148,13 +148,13 @@ class ModelPolicy(Policy):
             self.action_mode = action_mode_of(self.model.action_space.high)
         except ValueError as exc:
             raise PolicyError(f"{self.path}: {exc}") from None
-        self.targets = PositionTargets(*_table(params, command_limits)) if self.action_mode == "position" else None
+        self.action_map = action_map(self.action_mode, *_table(params, command_limits))
 
     def predict(self, obs):
         obs = np.asarray(obs, np.float32)
         action, _ = self.model.predict(obs, deterministic=True)
-        if self.targets is not None:
-            return self.targets.velocity_action(obs, action)
+        if self.action_map is not None:
+            return self.action_map.velocity_action(obs, action)
         return np.clip(action, -ACTION_LIMIT, ACTION_LIMIT).astype(np.float32)
 
 

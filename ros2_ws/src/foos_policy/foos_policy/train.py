@@ -68,8 +68,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--action", choices=ACTION_MODES, default="velocity",
                    help="velocity: the paper's 8-D action in [-20, 20], a share of each drive's speed limit; position: "
                         "rod position targets in [-1, 1]^8 (slide a share of the travel, rotation a share of pi) that a "
-                        "braking-curve controller follows (foos_policy.actions; policy_node still publishes velocities) "
-                        "(default velocity)")
+                        "braking-curve controller follows (foos_policy.actions; policy_node still publishes velocities); "
+                        "residual: corrections added to the scripted controller's velocity action, at most half of a "
+                        "slide's and a fifth of a rotation's limit (zero plays the scripted controller) (default velocity)")
     p.add_argument("--steps", type=int, default=20000,
                    help="environment steps to train (default 20000; SBX SAC learns at ~330 steps/s on a free core)")
     add_task_arguments(p)
