@@ -1,12 +1,13 @@
 """Position-target actions (foos_policy.actions): the braking-curve controller moves real simulated rods to their
 targets on the robot table's jerk-limited drives without spinning them, for either team, and a model trained on
-them plays through ModelPolicy as velocity actions."""
+them plays through ModelPolicy as velocity actions. Corrections to the scripted controller (`residual`): zero plays
+the scripted controller's very episodes, the largest offsets hold the rods off their hold without spinning them."""
 import numpy as np
 import pytest
 
 from foos_core.names import JOINT_NAMES, RODS
 from foos_core.table_params import ROBOT_PARAMS_FILE, load_params
-from foos_policy.actions import PositionTargets, action_mode_of
+from foos_policy.actions import RESIDUAL_ACTION_HIGH, PositionTargets, ScriptedResidual, action_mode_of
 from foos_policy.env import FoosballEnv
 from foos_policy.observation import ACTION_LIMIT, OWN_SLOT, action_to_command, observe
 from foos_sim.simulation import TableSimulation
@@ -17,6 +18,7 @@ ROBOT_TABLE = ROBOT_PARAMS_FILE
 def test_a_models_action_box_names_its_mode():
     assert action_mode_of(np.full(8, 20.0)) == "velocity"
     assert action_mode_of(np.ones(8)) == "position"
+    assert action_mode_of(np.tile([0.04, np.pi / 2], 4)) == "residual"
     with pytest.raises(ValueError, match="neither velocities"):
         action_mode_of(np.full(8, 5.0))
 
@@ -90,3 +92,45 @@ def test_joint_names_order_matches_the_command_layout():
     # PositionTargets reads (slide, rotate) per rod in RODS order, as the team command is laid out
     home = [n for n in JOINT_NAMES if n.startswith("home_")]
     assert home == [f"home_{rod}_{axis}" for rod in RODS for axis in ("slide", "rotate")]
+
+
+def test_zero_corrections_play_the_scripted_controllers_episodes():
+    from foos_policy.policies import make_policy
+
+    residual = FoosballEnv(reset="hardened", opponent="scripted", params_file=str(ROBOT_TABLE), action="residual")
+    assert np.allclose(residual.action_space.high, RESIDUAL_ACTION_HIGH)
+    velocity = FoosballEnv(reset="hardened", opponent="scripted", params_file=str(ROBOT_TABLE))
+    scripted = make_policy("scripted", velocity.sim.params, velocity.sim.command_limits)
+    for seed in (11, 12):
+        obs_r, _ = residual.reset(seed=seed)
+        obs_v, _ = velocity.reset(seed=seed)
+        done = False
+        while not done:
+            obs_r, reward_r, term, trunc, info_r = residual.step(np.zeros(8, np.float32))
+            obs_v, reward_v, _, _, info_v = velocity.step(scripted.predict(obs_v))
+            assert np.array_equal(obs_r, obs_v) and reward_r == reward_v
+            done = term or trunc
+        assert info_r["episode_stats"] == info_v["episode_stats"]
+
+
+def test_the_largest_corrections_hold_the_rods_off_their_hold_without_spinning():
+    """A constant offset moves each rod's hold by it (within the drives' settling) and turns no figure round: the
+    same correction as a velocity (a fifth of the rotation limit) spun the rods round every 0.15 s."""
+    sim = TableSimulation(ROBOT_TABLE)
+    residual = ScriptedResidual(sim.params, sim.command_limits)
+    # a still ball 0.195 m ahead of the home midfield and 0.105 m behind the home attack: no rod kicks it
+    sim.reset(ball_position=np.array([0.0, 0.12]), ball_velocity=np.zeros(2))
+    for sign in (1.0, -1.0):
+        offset = sign * RESIDUAL_ACTION_HIGH
+        angles = []
+        for _ in range(50):  # 1 s
+            obs = observe("home", sim.ball_position(), sim.ball_velocity(), sim.joint_positions(), sim.joint_velocities())
+            sim.set_command("home", action_to_command("home", residual.velocity_action(obs, offset), sim.command_limits))
+            sim.stop_team("away")
+            sim.advance(0.02)
+            rods = observe("home", sim.ball_position(), sim.ball_velocity(), sim.joint_positions(),
+                           sim.joint_velocities())[4:].reshape(8, 4)[[OWN_SLOT[rod] for rod in RODS]]
+            angles.append(rods[:, 2])
+        angles = np.unwrap(np.array(angles), axis=0)
+        assert np.all(np.abs(angles) < np.pi), angles.max(axis=0)  # never past a half turn either way
+        assert angles[-1] == pytest.approx(np.full(4, sign * np.pi / 2), abs=0.35)

@@ -8,9 +8,10 @@ scripted controller (ROS-free).
   controller (PositionTargets) turns the targets into the paper's velocity action, so policy_node, the bag
   and the contract still carry velocity commands, and evaluation and play use one code path.
 - `residual`: corrections to the scripted controller (foos_policy.scripted, the baseline that tracks the
-  ball and kicks): per own rod an offset of the slide target it holds, in metres (at most 40 mm), and of the
-  angle it holds the figures at, in radians (at most a quarter turn), followed with its own gains
-  (ScriptedResidual). An action of zero plays the scripted controller itself.
+  ball and kicks): per own rod an offset of the slide target it holds, in metres (at most 40 mm), and the
+  angle it holds the figures at when not kicking, in radians (at most a quarter turn), held on the position
+  targets' braking curve (ScriptedResidual). An action of zero plays the scripted controller's tracking and
+  kicks with that steadier hold.
 
 Why position targets: a robot table's rods (TU Darmstadt's, Jaykixx/Foosball) are driven to positions by
 their own jerk-limited servo loop. On those drives a velocity action is hard to learn with: a constant action
@@ -24,8 +25,7 @@ import numpy as np
 
 from foos_core.names import RODS
 
-from .observation import ACTION_LIMIT, OWN_SLOT
-from .scripted import ROTATE_GAIN as SCRIPTED_ROTATE_GAIN
+from .observation import ACTION_LIMIT, OWN_SLOT, wrap_angle
 from .scripted import SLIDE_GAIN as SCRIPTED_SLIDE_GAIN
 from .scripted import ScriptedPolicy, own_rod_geometry
 
@@ -38,10 +38,12 @@ POSITION_ACTION_LIMIT = 1.0
 # in the budget. A correction starts from the scripted controller's play (it tracks the ball and kicks) and can
 # aim, time and place it: it moves the targets the scripted controller holds each rod at, its slide by up to
 # 40 mm (where a figure meets the ball, so which way the ball goes) and its figures' angle by up to a quarter
-# turn (a block's posture, a back-swing before the kick), through the scripted controller's own gains.
-# Targets, not velocities: a velocity added to the scripted hold (a fifth of the rotation limit, 63 rad/s) spun
-# the rods 111-134 turns an episode, as the drive's lag let every 20 ms step carry the figures over a radian past
-# the hold before it answered; a target a quarter turn off is held.
+# turn (a block's posture, a back-swing before the kick).
+# The held angle is followed on the braking curve of the position targets, not with the scripted controller's
+# 25 /s proportional hold: on the jerk-limited drives that hold overshoots a step of a quarter turn by 100 % and
+# one of a half turn past the half turn, where it pushes the rod round (measured: a step from +pi/2 to -pi/2
+# turned the figures a full turn more). A velocity added to the hold instead (a fifth of the limit) spun the
+# rods 111-134 turns an episode.
 RESIDUAL_SLIDE_OFFSET = 0.04          # m
 RESIDUAL_ROTATE_OFFSET = np.pi / 2    # rad
 RESIDUAL_ACTION_HIGH = np.tile([RESIDUAL_SLIDE_OFFSET, RESIDUAL_ROTATE_OFFSET], len(RODS))
@@ -122,25 +124,35 @@ class PositionTargets:
         position = rods[:, [0, 2]].ravel()
         velocity = rods[:, [1, 3]].ravel()
         error = self.targets(action) - (position + LEAD_S * velocity)
-        distance = np.abs(error)
-        speed = np.minimum.reduce([BRAKING_MARGIN * np.cbrt(self.jerk * distance * distance),
-                                   np.sqrt(self.acceleration * distance), self.gain * distance])
-        command = np.sign(error) * np.minimum(speed, self.limits)
+        command = np.sign(error) * np.minimum(self.braking_speed(np.abs(error)), self.limits)
         return (command / self.limits * ACTION_LIMIT).astype(np.float32)
+
+    def braking_speed(self, distance: np.ndarray) -> np.ndarray:
+        """Per axis (command order), the speed to command toward a target `distance` away (the braking curve)."""
+        return np.minimum.reduce([BRAKING_MARGIN * np.cbrt(self.jerk * distance * distance),
+                                  np.sqrt(self.acceleration * distance), self.gain * distance])
 
 
 class ScriptedResidual:
-    """Target offsets (metres, radians) -> the scripted controller's velocity action with its slide and rotation
-    targets moved by them, one control step at a time, from the same own-view observation the policy acts on
-    (the ball as the camera loop delivers it, the own rods from their encoders). While a rod kicks, its rotation
-    command is the drive's limit and the offset changes it only where it turns against the kick."""
+    """Target offsets (metres, radians) -> the scripted controller's velocity action with its targets moved by
+    them, one control step at a time, from the same own-view observation the policy acts on (the ball as the
+    camera loop delivers it, the own rods from their encoders). A slide follows its moved target with the
+    scripted controller's gain; a rod's figures are held at the offset angle on the braking curve
+    (PositionTargets), except while the scripted controller kicks with it."""
 
     def __init__(self, params: dict, command_limits):
         self.scripted = ScriptedPolicy(params, command_limits)
+        self.hold = PositionTargets(params, command_limits)
         self.limits = np.asarray(command_limits, dtype=float)
-        self.gain = np.tile([SCRIPTED_SLIDE_GAIN, SCRIPTED_ROTATE_GAIN], len(RODS))
+        self.slots = np.array([OWN_SLOT[rod] for rod in RODS])
 
     def velocity_action(self, obs, action) -> np.ndarray:
         offset = np.clip(np.asarray(action, dtype=float).ravel(), -RESIDUAL_ACTION_HIGH, RESIDUAL_ACTION_HIGH)
-        command = self.scripted.predict(obs) + self.gain * offset / self.limits * ACTION_LIMIT
-        return np.clip(command, -ACTION_LIMIT, ACTION_LIMIT).astype(np.float32)
+        command, kicking = self.scripted.plan(obs)
+        command[0::2] += SCRIPTED_SLIDE_GAIN * offset[0::2]
+        rods = np.asarray(obs, dtype=float)[4:].reshape(8, 4)[self.slots]
+        error = wrap_angle(offset[1::2] - (rods[:, 2] + LEAD_S * rods[:, 3]))  # the short way round
+        hold = np.sign(error) * self.hold.braking_speed(np.repeat(np.abs(error), 2))[1::2]
+        command[1::2] = np.where(kicking, command[1::2], hold)
+        command = np.clip(command, -self.limits, self.limits)
+        return (command / self.limits * ACTION_LIMIT).astype(np.float32)

@@ -54,10 +54,17 @@ class ScriptedPolicy:
         self.kick = kick
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
+        command, _ = self.plan(obs)
+        return (command / self.limits * ACTION_LIMIT).astype(np.float32)
+
+    def plan(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """This step's command in SI units (clipped to the drives' limits, command order) and which of the rods
+        (RODS order) are kicking."""
         obs = np.asarray(obs, dtype=float)
         bx, by, bvx, bvy = obs[:4]
         tx = bx + LOOK_AHEAD * bvx
         command = np.zeros(8)
+        kicking = np.zeros(len(RODS), dtype=bool)
         for r, rod in enumerate(RODS):
             slide, _, angle, _ = obs[4 + 4 * OWN_SLOT[rod]: 8 + 4 * OWN_SLOT[rod]]
             g = self.geometry[rod]
@@ -73,7 +80,7 @@ class ScriptedPolicy:
             ahead = by - g.y
             if self.kick and 0.0 < ahead < KICK_REACH and abs(bx - figure_x) < KICK_HALF_WIDTH:
                 command[2 * r + 1] = self.limits[2 * r + 1]  # full swing toward the opponent's goal
+                kicking[r] = True
             else:
                 command[2 * r + 1] = ROTATE_GAIN * wrap_angle(0.0 - angle)
-        command = np.clip(command, -self.limits, self.limits)
-        return (command / self.limits * ACTION_LIMIT).astype(np.float32)
+        return np.clip(command, -self.limits, self.limits), kicking
