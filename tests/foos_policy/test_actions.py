@@ -1,15 +1,21 @@
 """Position-target actions (foos_policy.actions): the braking-curve controller moves real simulated rods to their
 targets on the robot table's jerk-limited drives without spinning them, for either team, and a model trained on
-them plays through ModelPolicy as velocity actions. Corrections to the scripted controller (`residual`): zero plays
-the scripted controller's very episodes, the largest offsets hold the rods off their hold without spinning them."""
+them plays through ModelPolicy as velocity actions. Corrections to the scripted controller (`residual`): zero tracks
+and kicks as the scripted controller does, and the largest offsets hold the rods off their hold without spinning them."""
 import numpy as np
 import pytest
 
 from foos_core.names import JOINT_NAMES, RODS
 from foos_core.table_params import ROBOT_PARAMS_FILE, load_params
-from foos_policy.actions import RESIDUAL_ACTION_HIGH, PositionTargets, ScriptedResidual, action_mode_of
+from foos_policy.actions import (
+    LEAD_S,
+    RESIDUAL_ACTION_HIGH,
+    PositionTargets,
+    ScriptedResidual,
+    action_mode_of,
+)
 from foos_policy.env import FoosballEnv
-from foos_policy.observation import ACTION_LIMIT, OWN_SLOT, action_to_command, observe
+from foos_policy.observation import ACTION_LIMIT, OWN_SLOT, action_to_command, observe, wrap_angle
 from foos_sim.simulation import TableSimulation
 
 ROBOT_TABLE = ROBOT_PARAMS_FILE
@@ -94,23 +100,33 @@ def test_joint_names_order_matches_the_command_layout():
     assert home == [f"home_{rod}_{axis}" for rod in RODS for axis in ("slide", "rotate")]
 
 
-def test_zero_corrections_play_the_scripted_controllers_episodes():
+def test_zero_corrections_track_and_kick_as_the_scripted_controller():
+    """Along the scripted controller's own episodes: with no correction the slides get its very commands, and so
+    does every rod it kicks with; the other rods are held hanging (on the braking curve, not its own hold)."""
     from foos_policy.policies import make_policy
 
-    residual = FoosballEnv(reset="hardened", opponent="scripted", params_file=str(ROBOT_TABLE), action="residual")
-    assert np.allclose(residual.action_space.high, RESIDUAL_ACTION_HIGH)
-    velocity = FoosballEnv(reset="hardened", opponent="scripted", params_file=str(ROBOT_TABLE))
-    scripted = make_policy("scripted", velocity.sim.params, velocity.sim.command_limits)
+    residual_env = FoosballEnv(reset="hardened", opponent="scripted", params_file=str(ROBOT_TABLE), action="residual")
+    assert np.allclose(residual_env.action_space.high, RESIDUAL_ACTION_HIGH)
+    env = FoosballEnv(reset="hardened", opponent="scripted", params_file=str(ROBOT_TABLE))
+    scripted = make_policy("scripted", env.sim.params, env.sim.command_limits)
+    residual = ScriptedResidual(env.sim.params, env.sim.command_limits)
+    kicks = 0
     for seed in (11, 12):
-        obs_r, _ = residual.reset(seed=seed)
-        obs_v, _ = velocity.reset(seed=seed)
+        obs, _ = env.reset(seed=seed)
         done = False
         while not done:
-            obs_r, reward_r, term, trunc, info_r = residual.step(np.zeros(8, np.float32))
-            obs_v, reward_v, _, _, info_v = velocity.step(scripted.predict(obs_v))
-            assert np.array_equal(obs_r, obs_v) and reward_r == reward_v
+            expected, corrected = scripted.predict(obs), residual.velocity_action(obs, np.zeros(8))
+            assert np.array_equal(corrected[0::2], expected[0::2])
+            kicking = expected[1::2] == ACTION_LIMIT
+            kicks += int(kicking.sum())
+            assert np.array_equal(corrected[1::2][kicking], expected[1::2][kicking])
+            rods = obs[4:].reshape(8, 4)[[OWN_SLOT[rod] for rod in RODS]]
+            ahead = wrap_angle(rods[:, 2] + LEAD_S * rods[:, 3])  # where the figures are about to be
+            turning_back = (np.abs(ahead) > 0.05) & ~kicking
+            assert np.all(np.sign(corrected[1::2][turning_back]) == -np.sign(ahead[turning_back]))  # the short way
+            obs, _, term, trunc, _ = env.step(expected)
             done = term or trunc
-        assert info_r["episode_stats"] == info_v["episode_stats"]
+    assert kicks > 0
 
 
 def test_the_largest_corrections_hold_the_rods_off_their_hold_without_spinning():
