@@ -108,8 +108,9 @@ def test_leonhart_row():
     # after (docs/measurements/vision-2026-11-27-stills.md); 24 and 0 once a pick must lead its rivals and be round
     # (vision-2026-11-28-stills.md); 27 and 1 once the light on the rods' lines is taken out (vision-2026-11-28-
     # stills-2.md: the wrong pick is frame 287's painted penalty spot, at the floor, with the ball not a candidate
-    # and the rod reflections that outscored the spot gone). The issue's target is 33 found and 2 wrong.
-    assert found >= 27 and false <= 1, row
+    # and the rod reflections that outscored the spot gone); 28 and 1 once a ball's tint is a second cue where the
+    # light has no clear ball (vision-2026-11-28-stills-3.md). The issue's target is 33 found and 2 wrong.
+    assert found >= 28 and false <= 1, row
 
 
 @pytest.mark.timeout(180)
@@ -143,14 +144,15 @@ def test_a_labelled_sequence_of_frames_with_markers_is_tracked_and_scored(tmp_pa
 def test_goal5_as_stills():
     # The video's frames one by one, its tags unused: the felt is found in each frame and the pick must lead its
     # rivals, so no frame with the ball out of sight reports one (vision-2026-11-28-stills.md: 15 of 39, 0 false; 16
-    # once the rods' light is taken out, vision-2026-11-28-stills-2.md).
+    # once the rods' light is taken out, vision-2026-11-28-stills-2.md; 21 with the tint cue, vision-2026-11-28-
+    # stills-3.md, each within 4.2 px of the tracker's own detection).
     result = bench("--real", str(REALDATA / "goal5"), "--stills")
     assert result.returncode == 0, result.stderr
     row = next(line for line in result.stdout.splitlines() if line.startswith("goal5 "))
     assert "stills, field found" in row and "no field" not in result.stdout and "goal mouth" not in result.stdout, row
     fields = row.split()  # clip, mode ("stills, field found"), frames, ball, found, recall, med, p95, dets, false, ...
     frames, ball, found, false = int(fields[4]), int(fields[5]), int(fields[6]), int(fields[11])
-    assert (frames, ball) == (108, 39) and found >= 16 and false == 0, row
+    assert (frames, ball) == (108, 39) and found >= 21 and false == 0, row
 
 
 def test_stills_needs_real():

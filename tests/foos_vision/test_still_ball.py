@@ -12,11 +12,11 @@ from foos_vision.detection import still_ball
 from foos_vision.detection.still_ball import MIN_LEAD, MIN_SCORE, TEAM_BALLS, StillBallFinder
 
 
-def drawn_still(ball=(1200, 500), ball_bgr=(235, 235, 235), heads_bgr=(30, 30, 30)):
-    """A 1920x1080 frame: grey floor, a green felt 1400 x 790 px (a 1.2 x 0.68 m field at 1160 px/m), white lines,
-    figures' heads of the ball's size, and a ball (35 mm: 40.6 px across; none when ball is None)."""
+def drawn_still(ball=(1200, 500), ball_bgr=(235, 235, 235), heads_bgr=(30, 30, 30), felt_bgr=(60, 130, 50)):
+    """A 1920x1080 frame: grey floor, a felt (green unless told) 1400 x 790 px (a 1.2 x 0.68 m field at 1160 px/m),
+    white lines, figures' heads of the ball's size, and a ball (35 mm: 40.6 px across; none when ball is None)."""
     frame = np.full((1080, 1920, 3), (90, 90, 90), np.uint8)
-    cv2.rectangle(frame, (260, 145), (1660, 935), (60, 130, 50), -1)
+    cv2.rectangle(frame, (260, 145), (1660, 935), felt_bgr, -1)
     cv2.line(frame, (960, 145), (960, 935), (240, 240, 240), 6)
     cv2.circle(frame, (960, 540), 120, (240, 240, 240), 6)
     for u in (500, 700, 1400):
@@ -164,6 +164,44 @@ def test_the_centre_is_the_balls_not_its_lit_top():
     cv2.ellipse(frame, (1200, 500), (20, 20), 0, 180, 360, (235, 235, 235), -1, cv2.LINE_AA)
     _, ball = StillBallFinder().ball(frame)
     assert ball is not None and math.hypot(ball.u - 1200, ball.v - 500) < 5.0, ball
+
+
+# (felt, the shaded ball's body), BGR: a yellow ball on green felt (Lab L 137 on the felt's 123), an orange one on blue
+# felt (L 108 on 97). Each body is only 11-14 light levels above the felt, as a real ball in a figure's shade is.
+SHADED_BALLS = [((60, 130, 50), (40, 130, 140)), ((150, 90, 40), (40, 95, 125))]
+
+
+@pytest.mark.parametrize("felt_bgr, body_bgr", SHADED_BALLS)
+def test_a_shaded_ball_is_found_by_its_tint(felt_bgr, body_bgr):
+    # A ball in a figure's shade: its body barely lighter than the felt, only a thin cap on its top lit. In the light
+    # above the felt it is a bright arc over a faint disc, and no light candidate is clear enough (before the tint, no
+    # ball was reported). Its chroma lies off the felt-to-grey line over the whole disc, whatever the two colours are.
+    frame = drawn_still(ball=None, felt_bgr=felt_bgr)
+    cv2.circle(frame, (1200, 500), 20, body_bgr, -1, cv2.LINE_AA)
+    cv2.ellipse(frame, (1200, 500), (17, 17), 0, 210, 330, (225, 235, 240), 4, cv2.LINE_AA)
+    frame = cv2.GaussianBlur(frame, (5, 5), 1.0)
+    finder = StillBallFinder()
+    field, candidates = finder.find(frame)
+    _, ball = finder.ball(frame)
+    assert ball is not None and ball.cue == "tint", candidates[:3]
+    assert math.hypot(ball.u - 1200, ball.v - 500) < 4.0, ball
+
+
+def test_white_light_has_no_tint():
+    # The felt's painted lines, a lamp's sheen and white socks mix the felt's colour with grey: no tint, however light.
+    # A ball's colour lies off that line. The drawn still has white lines on green felt; a yellow disc is added.
+    frame = drawn_still(ball=(1200, 500), ball_bgr=(40, 210, 230))
+    cv2.circle(frame, (700, 700), 20, (150, 190, 145), -1, cv2.LINE_AA)  # a half-white, half-felt blur of a sock
+    small = cv2.resize(frame, (still_ball.WORK_WIDTH, 540), interpolation=cv2.INTER_AREA)
+    lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab)
+    field, region = StillBallFinder()._felt(lab, 0.5)
+    r = field.ball_radius_px * 0.5
+    lighter, around = still_ball._lighter_than_felt(small, lab, r)
+    team = still_ball._team_colours(lab, region, field.felt_lab, r)
+    tinted = still_ball._tinted(lab, around, lighter, team)
+    assert lighter[400, 480] > 50 and tinted[400, 480] < 10, (lighter[400, 480], tinted[400, 480])  # the centre line
+    assert lighter[350, 350] > 20 and tinted[350, 350] < 10, (lighter[350, 350], tinted[350, 350])  # the sock's blur
+    assert tinted[250, 600] > 60, tinted[250, 600]  # the yellow ball
 
 
 def test_a_team_in_one_colour_is_not_the_ball():

@@ -24,9 +24,17 @@ does not. The rods are found as a family: the straight lines that cross the felt
 (the rods' edges and their sheen, whole lines found by a Hough transform, not segments), in the direction most of
 them share (the rods are parallel; perspective turns them a few degrees). The light on those lines, one pixel wide
 each, is set to none; a painted line parallel to the rods goes too, which is no ball either.
-The best candidate is the ball when its score reaches MIN_SCORE and it leads every candidate more than a ball's width
-away by MIN_LEAD: two things in a frame that look as much like a ball as each other make the pick a guess, and a
-wrong ball costs more than none (the frame then has no ball to report).
+A ball in a figure's shade shows little light: a thin lit cap over a body 10-30 light levels above the felt, which the
+light's disc filter sees as an arc, not a disc. A second cue, its tint, sees the whole of it: how far a pixel's
+chroma lies from what white light makes of the felt around it (the segment from the felt's chroma to grey's, on which
+the felt's painted lines, the rods' sheen and white socks all lie, however light), where the pixel is lighter than the
+felt and not in a team's colour. No ball colour is named: any ball but a white or grey one lies off that segment, and
+a white one is lit enough for the light cue. The tint's candidates are found and scored as the light's are (on the
+felt found only: past it lie the walls, whose colour is a tint of its own).
+The best light candidate is the ball when its score reaches MIN_SCORE and it leads every other light candidate more
+than a ball's width away by MIN_LEAD: two things in a frame that look as much like a ball as each other make the pick a
+guess, and a wrong ball costs more than none (the frame then has no ball to report). Only when the light has no clear
+ball may a tint candidate be it, leading every candidate of both cues by MIN_LEAD.
 
 StillBallFinder.find(bgr) returns the field it found (a convex outline and the ball's radius in pixels there) and
 the ball candidates, best first; ball(bgr) the one it would report. The real-footage bench (real_bench) scores it
@@ -68,6 +76,7 @@ ROD_SPAN = 0.5  # of the felt's short side: a rod's line crosses at least this m
 ROD_COVER = 0.5  # of its way across the felt with an edge on the line: figures on the rod hide the rest
 ROD_TURN = 10.0  # degrees from the rods' common direction: perspective turns parallel rods this much at most
 ROD_ANGLE_STEP = 0.5  # degrees: the Hough transform's angle resolution (at most 4 px off over a 500 px rod)
+TINT_GAIN = 3.0  # light levels per chroma level: the felt's light varies about 3x as much as its chroma (15-24 vs 7-8)
 MIN_SCORE = 0.6  # below this the best candidate is not reported: nothing in the frame is clearly a ball
 MIN_LEAD = 0.1  # the best's score over the next best's more than a ball's width away: less, and the pick is a guess
 
@@ -90,6 +99,7 @@ class StillCandidate:
     rim: float  # share of the sectors of a circle of the ball's size with an edge on it, light inside, 0..1
     team_balls: float  # balls' areas of the field in this candidate's colour (0: not a chromatic colour)
     score: float
+    cue: str = "light"  # the map it was found in: "light" (lighter than the felt) or "tint" (its chroma, see _tinted)
 
 
 class StillBallFinder:
@@ -150,13 +160,9 @@ class StillBallFinder:
         return field, region
 
     def ball(self, bgr: np.ndarray) -> tuple[Optional[FeltField], Optional[StillCandidate]]:
-        """The field and the candidate reported as the ball: the best, when its score reaches MIN_SCORE and leads
-        every other candidate a ball's width or more away by MIN_LEAD (None otherwise)."""
+        """The field and the candidate reported as the ball (None when there is no clear one, see _pick)."""
         field, candidates = self.find(bgr)
-        if not candidates or candidates[0].score < MIN_SCORE:
-            return field, None
-        best = candidates[0]
-        return field, best if best.score - _rival_score(best, candidates, field) >= MIN_LEAD else None
+        return field, _pick(candidates, field)
 
     def find(self, bgr: np.ndarray) -> tuple[Optional[FeltField], list[StillCandidate]]:
         """The field and the ball candidates in it, best first (empty when no felt is found)."""
@@ -167,48 +173,79 @@ class StillBallFinder:
         if field is None:
             return None, []
         r = field.ball_radius_px * scale
-        lighter = _lighter_than_felt(small, lab, r)
-        lighter[_rod_lines(lab, region) > 0] = 0.0
-        contrast, radius = _disc_filter(lighter, r)
-        size = max(3, int(r) | 1)
-        # The felt's colour changes where a lamp lights or a wall shades its ends: the felt found can stop short of
-        # the field's edge by a ball's width, and a ball there is still on the field.
-        grow = int(2 * FIELD_MARGIN * r) | 1
-        searched = cv2.dilate(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow)))
-        peaks = ((contrast == cv2.dilate(contrast, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))))
-                 & (contrast >= MIN_PEAK) & (searched > 0))
-        ys, xs = np.nonzero(peaks)
-        order = np.argsort(-contrast[ys, xs])[:MAX_PEAKS]
-        light = cv2.GaussianBlur(lab[..., 0].astype(np.float32), (0, 0), 1.0)
-        gx = cv2.Sobel(light, cv2.CV_32F, 1, 0, ksize=3) / 8
-        gy = cv2.Sobel(light, cv2.CV_32F, 0, 1, ksize=3) / 8
+        lighter, around = _lighter_than_felt(small, lab, r)
+        rods = _rod_lines(lab, region) > 0
+        lighter[rods] = 0.0
         team = _team_colours(lab, region, field.felt_lab, r)
-        found = []
-        for x, y in zip(xs[order], ys[order]):
-            rr = float(radius[y, x])
-            shape = _disc_correlation(lighter, x, y, rr)
-            if shape is None:
-                continue
-            rim, (cx, cy) = _rim(gx, gy, x, y, r)
-            team_balls = _team_balls(lab, team, x, y, rr)
-            score = shape * rim / (1.0 + (team_balls / TEAM_BALLS) ** 2)
-            found.append(StillCandidate(cx / scale, cy / scale, rr / scale, float(contrast[y, x]), shape, rim,
-                                        team_balls, score))
+        tinted = _tinted(lab, around, lighter, team)
+        tinted[rods] = 0.0
+        # The felt's colour changes where a lamp lights or a wall shades its ends: the felt found can stop short of
+        # the field's edge by a ball's width, and a ball there is still on the field. The tint is measured against
+        # the felt, so it is searched on the felt found only: past it lie the walls, whose own colour is a tint.
+        grow = int(2 * FIELD_MARGIN * r) | 1
+        searched = cv2.dilate(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow))) > 0
+        light = cv2.GaussianBlur(lab[..., 0].astype(np.float32), (0, 0), 1.0)
+        found = (_candidates("light", lighter, light, lab, team, searched, r, scale)
+                 + _candidates("tint", tinted, cv2.GaussianBlur(tinted, (0, 0), 1.0), lab, team, region > 0, r, scale))
         found.sort(key=lambda c: -c.score)
         return field, found
 
 
-def _lighter_than_felt(small: np.ndarray, lab: np.ndarray, r: float) -> np.ndarray:
+def _candidates(cue: str, strength: np.ndarray, edges_of: np.ndarray, lab: np.ndarray, team: np.ndarray,
+                searched: np.ndarray, r: float, scale: float) -> list[StillCandidate]:
+    """The peaks of the disc filter on a cue's map (strength: how much a pixel differs from the felt that way), each
+    scored on its shape in that map, its rim in edges_of's edges and its team colour (full-frame pixels)."""
+    contrast, radius = _disc_filter(strength, r)
+    size = max(3, int(r) | 1)
+    peaks = ((contrast == cv2.dilate(contrast, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))))
+             & (contrast >= MIN_PEAK) & searched)
+    ys, xs = np.nonzero(peaks)
+    order = np.argsort(-contrast[ys, xs])[:MAX_PEAKS]
+    gx = cv2.Sobel(edges_of, cv2.CV_32F, 1, 0, ksize=3) / 8
+    gy = cv2.Sobel(edges_of, cv2.CV_32F, 0, 1, ksize=3) / 8
+    found = []
+    for x, y in zip(xs[order], ys[order]):
+        rr = float(radius[y, x])
+        shape = _disc_correlation(strength, x, y, rr)
+        if shape is None:
+            continue
+        rim, (cx, cy) = _rim(gx, gy, x, y, r)
+        team_balls = _team_balls(lab, team, x, y, rr)
+        score = shape * rim / (1.0 + (team_balls / TEAM_BALLS) ** 2)
+        found.append(StillCandidate(cx / scale, cy / scale, rr / scale, float(contrast[y, x]), shape, rim,
+                                    team_balls, score, cue))
+    return found
+
+
+def _lighter_than_felt(small: np.ndarray, lab: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
     """How much lighter than the felt around it each pixel is (L levels, 0 where darker: a dark figure next to a
-    light spot must not make it look like a ball)."""
+    light spot must not make it look like a ball), and the felt around each pixel (Lab, float)."""
     light = lab[..., 0].astype(np.float32)
     # The felt's light around each pixel: a median over a few ball widths takes no ball and no line.
     k = min(255, max(5, int(6 * r) | 1))
     step = max(1, int(r // 2))
     coarse = cv2.medianBlur(small[::step, ::step] if step > 1 else small, min(k // step | 1, 255))
-    around = cv2.resize(cv2.cvtColor(coarse, cv2.COLOR_BGR2Lab)[..., 0], (light.shape[1], light.shape[0]),
+    around = cv2.resize(cv2.cvtColor(coarse, cv2.COLOR_BGR2Lab), (light.shape[1], light.shape[0]),
                         interpolation=cv2.INTER_LINEAR).astype(np.float32)
-    return np.clip(light - around, 0.0, None)
+    return np.clip(light - around[..., 0], 0.0, None), around
+
+
+def _tinted(lab: np.ndarray, around: np.ndarray, lighter: np.ndarray, team: np.ndarray) -> np.ndarray:
+    """How far each pixel's chroma lies from what white light makes of the felt around it, in light levels
+    (TINT_GAIN per Lab a/b level). White light on the felt, on its painted lines, on the rods' sheen and on white
+    socks mixes the felt's chroma with grey's (128, 128): such pixels lie on the segment between the two and have no
+    tint, whatever their light. A ball of any colour but white or grey lies off it, in shade as well as lit, where its
+    light above the felt is a thin lit cap. Only where the pixel is lighter than the felt (fully from MIN_PEAK up: a
+    figure's shadow and a dark figure are no ball, and a dark pixel's chroma is noise), and not in a team's colour."""
+    a, b = lab[..., 1].astype(np.float32), lab[..., 2].astype(np.float32)
+    felt_a, felt_b = around[..., 1], around[..., 2]
+    to_grey_a, to_grey_b = 128.0 - felt_a, 128.0 - felt_b
+    along = np.clip(((a - felt_a) * to_grey_a + (b - felt_b) * to_grey_b)
+                    / (to_grey_a ** 2 + to_grey_b ** 2 + 1e-6), 0.0, 1.0)
+    off_axis = np.hypot(a - felt_a - along * to_grey_a, b - felt_b - along * to_grey_b)
+    tint = TINT_GAIN * off_axis * np.clip(lighter / MIN_PEAK, 0.0, 1.0)
+    tint[team[lab[..., 1], lab[..., 2]] >= TEAM_BALLS] = 0.0
+    return tint
 
 
 def _rod_lines(lab: np.ndarray, region: np.ndarray) -> np.ndarray:
@@ -353,6 +390,20 @@ def _rim(gx: np.ndarray, gy: np.ndarray, x: int, y: int, r: float) -> tuple[floa
         if share > best[0]:
             best = (share, (float(cx + x0), float(cy + y0)))
     return best
+
+
+def _pick(candidates: list[StillCandidate], field: Optional[FeltField]) -> Optional[StillCandidate]:
+    """The ball, or None. The light comes first: its best candidate is the ball when its score reaches MIN_SCORE
+    and it leads every other light candidate more than a ball's width away by MIN_LEAD. Only where the light has no
+    clear ball (a ball in a figure's shade shows a thin lit cap) may a tint candidate be the ball, and it must then
+    lead every candidate of both cues by MIN_LEAD: a tint is a weaker sign than light, and many things are tinted."""
+    def leader(pool: list[StillCandidate]) -> Optional[StillCandidate]:
+        if not pool or pool[0].score < MIN_SCORE:
+            return None
+        return pool[0] if pool[0].score - _rival_score(pool[0], pool, field) >= MIN_LEAD else None
+
+    lit = leader([c for c in candidates if c.cue == "light"])
+    return lit if lit is not None else leader(candidates)
 
 
 def _rival_score(best: StillCandidate, candidates: list[StillCandidate], field: Optional[FeltField]) -> float:
