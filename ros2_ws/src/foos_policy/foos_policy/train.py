@@ -89,6 +89,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--time-limit", type=float, default=0.0,
                    help="stop after this many wall-clock minutes even if --steps is not reached (0 = no limit); "
                         "run.json records the steps actually done")
+    p.add_argument("--ent-coef", type=_entropy_coefficient, default="auto", metavar="auto|C",
+                   help="SAC/TQC's entropy coefficient: auto (tuned to a target entropy, the default) or a fixed C >= 0. A "
+                        "small fixed C keeps a residual policy near its base (--action residual): auto kept its actions "
+                        "spread over two thirds of their box for 267k steps")
     p.add_argument("--threads", type=int, default=1, help="torch (sb3) or XLA (sbx) threads (default 1: the CPU is shared)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     args = p.parse_args(argv)
@@ -104,6 +108,18 @@ def parse_args(argv=None) -> argparse.Namespace:
     return args
 
 
+def _entropy_coefficient(text: str):
+    if text == "auto":
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be auto or a number, got '{text}'") from None
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"must be at least 0, got {text}")
+    return value
+
+
 def default_name(algo: str, reset: str, opponent: str, seed: int) -> str:
     return f"{algo}_{reset}_{opponent}_s{seed}"
 
@@ -114,7 +130,7 @@ def build_model(args, env, tb_dir: Path):
         policy="MlpPolicy", env=env, seed=args.seed, verbose=0,
         learning_starts=args.learning_starts, buffer_size=args.buffer_size, batch_size=256,
         train_freq=args.train_freq, gradient_steps=args.gradient_steps,
-        tensorboard_log=str(tb_dir), policy_kwargs=dict(net_arch=list(args.net)),
+        tensorboard_log=str(tb_dir), policy_kwargs=dict(net_arch=list(args.net)), ent_coef=args.ent_coef,
     )
     if args.learner == "sbx" and args.threads == 1:  # read by XLA when JAX loads: one thread, so two runs share the cores
         os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
@@ -229,7 +245,7 @@ def train(args) -> dict:
         "learner": args.learner, "reward": args.reward, "own_goal_penalty": args.own_goal_penalty,
         "spin_penalty": args.spin_penalty, "curriculum": args.curriculum,
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
-        "params_file": args.params_file, "action": args.action,
+        "params_file": args.params_file, "action": args.action, "ent_coef": args.ent_coef,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
         "command": "train " + " ".join(sys.argv[1:]) if sys.argv else "",
