@@ -54,6 +54,7 @@ class EnvConfig:
     camera_latency: float = CAMERA_LATENCY    # s
     camera_noise: float = POSITION_NOISE      # m per axis; the velocity's noise is VELOCITY_NOISE while this is > 0
     action: str = "velocity"            # velocity | position | residual: what the home action asks of the rods (foos_policy.actions)
+    action_cost: float = 0.0            # per step, times the mean of (action / its bound)^2: keeps corrections near their base
 
 
 @dataclass
@@ -121,6 +122,8 @@ class FoosballEnv(gym.Env):
         self.sim = TableSimulation(cfg.params_file)
         self.reset_task = make_reset(cfg.reset)
         self.reward_fn = make_reward(cfg.reward, cfg.own_goal_penalty, cfg.spin_penalty)
+        if not cfg.action_cost >= 0:
+            raise ValueError(f"the action cost must be at least 0, got {cfg.action_cost}")
         if not cfg.control_rate > 0 or 1.0 / cfg.control_rate < self.sim.timestep:
             raise ValueError(f"control_rate {cfg.control_rate} Hz is not within the {1 / self.sim.timestep:.0f} Hz physics")
         self.dt = 1.0 / cfg.control_rate
@@ -167,6 +170,8 @@ class FoosballEnv(gym.Env):
         return self._home_obs, {}
 
     def step(self, action):
+        # the cost is on what the policy chose, in its own box, before it becomes a velocity
+        cost = self.config.action_cost * float(np.mean(np.square(np.asarray(action, dtype=float).ravel() / self.action_space.high)))
         if self.action_map is not None:  # position targets or corrections -> this step's velocity action
             action = self.action_map.velocity_action(self._home_obs, action)
         a = np.clip(np.asarray(action, dtype=np.float64).ravel(), -ACTION_LIMIT, ACTION_LIMIT)
@@ -187,7 +192,7 @@ class FoosballEnv(gym.Env):
         first_touch = not touched_before and self.stats.touches_home > 0
         reward = self.reward_fn(y_before, y_after, goal, a, self.sim.half_length, first_touch=first_touch,
                                 spun_touches=self.stats.home_touches_spun - spun_before,
-                                goal_spun=self.stats.last_touch_spun)
+                                goal_spun=self.stats.last_touch_spun) - cost
 
         speed = float(np.hypot(*self.sim.ball_velocity()[:2]))
         self._stagnant_count = self._stagnant_count + 1 if speed < self.config.stagnant_speed else 0

@@ -71,6 +71,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                         "braking-curve controller follows (foos_policy.actions; policy_node still publishes velocities); "
                         "residual: corrections added to the scripted controller's velocity action, at most half of a "
                         "slide's and a fifth of a rotation's limit (zero plays the scripted controller) (default velocity)")
+    p.add_argument("--action-cost", type=float, default=0.0, metavar="C",
+                   help="a cost each step of C times the mean squared action, each entry a share of its bound: pulls "
+                        "corrections toward zero, the scripted controller's own play (--action residual) (default 0)")
     p.add_argument("--steps", type=int, default=20000,
                    help="environment steps to train (default 20000; SBX SAC learns at ~330 steps/s on a free core)")
     add_task_arguments(p)
@@ -98,6 +101,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     args = p.parse_args(argv)
     if args.steps <= 0:
         p.error("--steps must be positive")
+    if not args.action_cost >= 0:
+        p.error(f"--action-cost must be at least 0, got {args.action_cost}")
     if args.n_envs <= 0 or args.train_freq <= 0 or args.gradient_steps <= 0:
         p.error("--n-envs, --train-freq and --gradient-steps must be positive")
     check_task_arguments(p, args)
@@ -211,7 +216,8 @@ def train(args) -> dict:
         def make():
             env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward, own_goal_penalty=args.own_goal_penalty,
                            spin_penalty=args.spin_penalty, opponent_delay=args.opponent_delay,
-                           view=args.view, opponent_view=args.opponent_view, params_file=args.params_file, action=args.action)
+                           view=args.view, opponent_view=args.opponent_view, params_file=args.params_file, action=args.action,
+                           action_cost=args.action_cost)
             env.reset(seed=args.seed * 1000 + rank)
             return env
         return make
@@ -245,7 +251,7 @@ def train(args) -> dict:
         "learner": args.learner, "reward": args.reward, "own_goal_penalty": args.own_goal_penalty,
         "spin_penalty": args.spin_penalty, "curriculum": args.curriculum,
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
-        "params_file": args.params_file, "action": args.action, "ent_coef": args.ent_coef,
+        "params_file": args.params_file, "action": args.action, "ent_coef": args.ent_coef, "action_cost": args.action_cost,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
         "command": "train " + " ".join(sys.argv[1:]) if sys.argv else "",
