@@ -150,3 +150,19 @@ def test_the_largest_corrections_hold_the_rods_off_their_hold_without_spinning()
         angles = np.unwrap(np.array(angles), axis=0)
         assert np.all(np.abs(angles) < np.pi), angles.max(axis=0)  # never past a half turn either way
         assert angles[-1] == pytest.approx(np.full(4, sign * np.pi / 2), abs=0.35)
+
+
+def test_the_action_cost_charges_the_mean_squared_share_of_the_bound():
+    """Two envs on the same episode and the same corrections: the rewards differ by C x mean((a / bound)^2) a step."""
+    plain = FoosballEnv(reset="hardened", opponent="scripted", params_file=str(ROBOT_TABLE), action="residual", reward="skill")
+    costly = FoosballEnv(reset="hardened", opponent="scripted", params_file=str(ROBOT_TABLE), action="residual", reward="skill",
+                         action_cost=0.05)
+    plain.reset(seed=4)
+    costly.reset(seed=4)
+    correction = np.float32([0.5, -1.0, 0.0, 0.25, 1.0, 0.0, -0.5, 0.5]) * RESIDUAL_ACTION_HIGH.astype(np.float32)
+    for _ in range(5):
+        _, reward, *_ = plain.step(correction)
+        _, charged, *_ = costly.step(correction)
+        assert reward - charged == pytest.approx(0.05 * np.mean(np.square([0.5, -1.0, 0.0, 0.25, 1.0, 0.0, -0.5, 0.5])))
+    with pytest.raises(ValueError, match="action cost must be at least 0"):
+        FoosballEnv(action_cost=-1.0)

@@ -197,6 +197,8 @@ def test_bad_inputs_give_one_line_errors(run_cli, tmp_path):
     assert refused.returncode == 2 and "skill reward only" in refused.stderr.strip().splitlines()[-1]
     refused = run_cli("train", "--ent-coef", "-1", "--out", str(tmp_path / "t"))
     assert refused.returncode == 2 and "--ent-coef: must be at least 0" in refused.stderr.strip().splitlines()[-1]
+    refused = run_cli("train", "--action-cost", "-1", "--out", str(tmp_path / "t"))
+    assert refused.returncode == 2 and "--action-cost must be at least 0" in refused.stderr.strip().splitlines()[-1]
     not_a_bag = tmp_path / "empty_dir"
     not_a_bag.mkdir()
     one_line_error(run_cli("evaluate_bag", str(not_a_bag)))
