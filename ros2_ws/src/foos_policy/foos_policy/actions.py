@@ -42,8 +42,8 @@ POSITION_ACTION_LIMIT = 1.0
 # The held angle is followed on the braking curve of the position targets, not with the scripted controller's
 # 25 /s proportional hold: on the jerk-limited drives that hold overshoots a step of a quarter turn by 100 % and
 # one of a half turn past the half turn, where it pushes the rod round (measured: a step from +pi/2 to -pi/2
-# turned the figures a full turn more). A velocity added to the hold instead (a fifth of the limit) spun the
-# rods 111-134 turns an episode.
+# turned the figures a full turn more). A velocity added to the hold instead (up to a fifth of the rotation
+# limit) spun the rods 107-134 turns an episode when held at either bound.
 RESIDUAL_SLIDE_OFFSET = 0.04          # m
 RESIDUAL_ROTATE_OFFSET = np.pi / 2    # rad
 RESIDUAL_ACTION_HIGH = np.tile([RESIDUAL_SLIDE_OFFSET, RESIDUAL_ROTATE_OFFSET], len(RODS))
@@ -152,6 +152,7 @@ class ScriptedResidual:
         command[0::2] += SCRIPTED_SLIDE_GAIN * offset[0::2]
         rods = np.asarray(obs, dtype=float)[4:].reshape(8, 4)[self.slots]
         error = wrap_angle(offset[1::2] - (rods[:, 2] + LEAD_S * rods[:, 3]))  # the short way round
+        # braking_speed takes a distance per axis in command order; the rotations' entries are the odd ones
         hold = np.sign(error) * self.hold.braking_speed(np.repeat(np.abs(error), 2))[1::2]
         command[1::2] = np.where(kicking, command[1::2], hold)
         command = np.clip(command, -self.limits, self.limits)
