@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from foos_core.names import RODS
+from foos_core.names import COMMAND_SIZE, RODS
 
 from .observation import ACTION_LIMIT, OWN_SLOT, wrap_angle
 from .scripted import SLIDE_GAIN as SCRIPTED_SLIDE_GAIN
@@ -66,9 +66,9 @@ ROTATE_GAIN = 24.0   # 1/s
 def action_high(mode: str) -> np.ndarray:
     """The upper bound of the 8-D action box of an action mode (the box is symmetric)."""
     if mode == "velocity":
-        return np.full(len(RESIDUAL_ACTION_HIGH), ACTION_LIMIT)
+        return np.full(COMMAND_SIZE, ACTION_LIMIT)
     if mode == "position":
-        return np.full(len(RESIDUAL_ACTION_HIGH), POSITION_ACTION_LIMIT)
+        return np.full(COMMAND_SIZE, POSITION_ACTION_LIMIT)
     if mode == "residual":
         return RESIDUAL_ACTION_HIGH.copy()
     raise ValueError(f"action must be one of {', '.join(ACTION_MODES)}, got '{mode}'")
@@ -79,7 +79,7 @@ def action_mode_of(action_high_saved) -> str:
     model says which actions it emits (velocity 20, position 1, residual 0.04 m / pi/2 per slide / rotation)."""
     high = np.asarray(action_high_saved, dtype=float).ravel()
     for mode in ACTION_MODES:
-        if high.size == len(RESIDUAL_ACTION_HIGH) and np.allclose(high, action_high(mode)):
+        if high.size == COMMAND_SIZE and np.allclose(high, action_high(mode)):
             return mode
     raise ValueError(f"an action box bounded by {high.max() if high.size else 'nothing'} is neither velocities "
                      f"([-{ACTION_LIMIT:g}, {ACTION_LIMIT:g}]), position targets ([-1, 1]) nor corrections to the "

@@ -170,8 +170,10 @@ class FoosballEnv(gym.Env):
         return self._home_obs, {}
 
     def step(self, action):
-        # the cost is on what the policy chose, in its own box, before it becomes a velocity
-        cost = self.config.action_cost * float(np.mean(np.square(np.asarray(action, dtype=float).ravel() / self.action_space.high)))
+        # the cost is on what the policy chose, in its own box, before it becomes a velocity (none by default)
+        cost = 0.0
+        if self.config.action_cost:
+            cost = self.config.action_cost * float(np.mean(np.square(np.asarray(action, dtype=float).ravel() / self.action_space.high)))
         if self.action_map is not None:  # position targets or corrections -> this step's velocity action
             action = self.action_map.velocity_action(self._home_obs, action)
         a = np.clip(np.asarray(action, dtype=np.float64).ravel(), -ACTION_LIMIT, ACTION_LIMIT)

@@ -69,11 +69,14 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="velocity: the paper's 8-D action in [-20, 20], a share of each drive's speed limit; position: "
                         "rod position targets in [-1, 1]^8 (slide a share of the travel, rotation a share of pi) that a "
                         "braking-curve controller follows (foos_policy.actions; policy_node still publishes velocities); "
-                        "residual: corrections added to the scripted controller's velocity action, at most half of a "
-                        "slide's and a fifth of a rotation's limit (zero plays the scripted controller) (default velocity)")
+                        "residual: corrections to the scripted controller's targets in [-0.04, 0.04] m (slides) and "
+                        "[-pi/2, pi/2] rad (the angle the figures are held at, on the braking curve); kicks stay the "
+                        "scripted controller's (default velocity)")
     p.add_argument("--action-cost", type=float, default=0.0, metavar="C",
-                   help="a cost each step of C times the mean squared action, each entry a share of its bound: pulls "
-                        "corrections toward zero, the scripted controller's own play (--action residual) (default 0)")
+                   help="a cost each step of C times the mean squared action, each entry a share of its bound, meant to "
+                        "pull corrections (--action residual) toward zero, the scripted controller's own play; at 0.05 "
+                        "one SAC seed's corrections stayed at 0.7 of their bounds (docs/measurements/"
+                        "policy-2026-11-28-residual.md) (default 0)")
     p.add_argument("--steps", type=int, default=20000,
                    help="environment steps to train (default 20000; SBX SAC learns at ~330 steps/s on a free core)")
     add_task_arguments(p)
@@ -93,9 +96,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="stop after this many wall-clock minutes even if --steps is not reached (0 = no limit); "
                         "run.json records the steps actually done")
     p.add_argument("--ent-coef", type=_entropy_coefficient, default="auto", metavar="auto|C",
-                   help="SAC/TQC's entropy coefficient: auto (tuned to a target entropy, the default) or a fixed C >= 0. A "
-                        "small fixed C keeps a residual policy near its base (--action residual): auto kept its actions "
-                        "spread over two thirds of their box for 267k steps")
+                   help="SAC/TQC's entropy coefficient: auto (tuned to a target entropy, the default) or a fixed C >= 0 "
+                        "(on corrections, --action residual, 0.001 left the actions at 0.7 of their bounds as auto did)")
     p.add_argument("--threads", type=int, default=1, help="torch (sb3) or XLA (sbx) threads (default 1: the CPU is shared)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     args = p.parse_args(argv)
