@@ -68,6 +68,39 @@ def observe(team: str, ball_position, ball_velocity, joint_positions, joint_velo
     return obs
 
 
+# A learner's view of the observation: each quantity divided by a typical size, so that no input dominates a
+# small network's first layer. Raw, the rods' angular velocities reach 314 rad/s on the robot drives (and 40 on the
+# former servos) beside ball positions of 0.6 m: SAC's actor on raw observations sat at 0.7 of its bounds whatever
+# the state (docs/measurements/policy-2026-11-28-residual.md). Clipped at +-OBS_SCALED_BOUND, so a model's
+# observation box tells scaled (finite bounds) from raw (unbounded) observations, as its action box tells the
+# action mode.
+BALL_POSITION_SCALE = 0.6    # m, half the field's length
+BALL_SPEED_SCALE = 5.0       # m/s, a firm pass
+SLIDE_SCALE = 0.1            # m, about a rod's travel each way
+SLIDE_SPEED_SCALE = 3.5      # m/s, the robot's slide drives
+ANGLE_SCALE = np.pi          # rad, the wrapped angle's range
+SPIN_SCALE = 100.0           # rad/s, a kick's rotation speed
+OBS_SCALED_BOUND = 5.0
+OBS_SCALE = np.concatenate([[BALL_POSITION_SCALE] * 2, [BALL_SPEED_SCALE] * 2,
+                            np.tile([SLIDE_SCALE, SLIDE_SPEED_SCALE, ANGLE_SCALE, SPIN_SCALE], 8)]).astype(np.float32)
+assert OBS_SCALE.shape == (OBS_SIZE,)
+
+
+def scaled_observation(obs) -> np.ndarray:
+    """The learner's view of a 36-D observation (or a batch of them): sizes of about 1, clipped."""
+    return np.clip(np.asarray(obs, np.float32) / OBS_SCALE, -OBS_SCALED_BOUND, OBS_SCALED_BOUND).astype(np.float32)
+
+
+def observes_scaled(observation_space) -> bool:
+    """Whether a saved model's observation box is the scaled view's (finite bounds) rather than the raw one's."""
+    high = np.asarray(observation_space.high, dtype=float)
+    if np.all(np.isinf(high)):
+        return False
+    if np.allclose(high, OBS_SCALED_BOUND):
+        return True
+    raise ValueError(f"observation box bounds {high.max():g} are neither raw (unbounded) nor scaled ({OBS_SCALED_BOUND:g})")
+
+
 def action_to_command(team: str, action, command_limits: np.ndarray) -> np.ndarray:
     """An own-view action in [-20, 20]^8 as the team's table-frame rod command (contract layout)."""
     a = np.clip(np.asarray(action, dtype=float).ravel(), -ACTION_LIMIT, ACTION_LIMIT)

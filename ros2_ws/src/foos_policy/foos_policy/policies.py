@@ -14,7 +14,7 @@ from foos_core.table_params import load_params
 from foos_sim import command_limits as params_command_limits
 
 from .actions import action_map, action_mode_of
-from .observation import ACTION_LIMIT
+from .observation import ACTION_LIMIT, observes_scaled, scaled_observation
 from .scripted import ScriptedPolicy
 
 BASELINES = ("zero", "random", "scripted")
@@ -146,13 +146,14 @@ class ModelPolicy(Policy):
         self.model = load_model(self.path)
         try:
             self.action_mode = action_mode_of(self.model.action_space.high)
+            self.observes_scaled = observes_scaled(self.model.observation_space)
         except ValueError as exc:
             raise PolicyError(f"{self.path}: {exc}") from None
         self.action_map = action_map(self.action_mode, *_table(params, command_limits))
 
     def predict(self, obs):
         obs = np.asarray(obs, np.float32)
-        action, _ = self.model.predict(obs, deterministic=True)
+        action, _ = self.model.predict(scaled_observation(obs) if self.observes_scaled else obs, deterministic=True)
         if self.action_map is not None:
             return self.action_map.velocity_action(obs, action)
         return np.clip(action, -ACTION_LIMIT, ACTION_LIMIT).astype(np.float32)

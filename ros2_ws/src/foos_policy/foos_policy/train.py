@@ -9,6 +9,8 @@ import sys
 import time
 from pathlib import Path
 
+import gymnasium as gym
+import numpy as np
 from tqdm import tqdm
 
 from .actions import ACTION_MODES
@@ -16,6 +18,7 @@ from .commands import add_task_arguments, check_task_arguments, run_command, wri
 from .curriculum import stage_at, stages
 from .env import make_env
 from .metrics import MetricsWriter, plot_metrics, summarize_tail
+from .observation import OBS_SCALED_BOUND, OBS_SIZE, scaled_observation
 from .policies import algorithm_class
 from .tasks import REWARDS, make_reward
 
@@ -72,6 +75,11 @@ def parse_args(argv=None) -> argparse.Namespace:
                         "residual: corrections to the scripted controller's targets in [-0.04, 0.04] m (slides) and "
                         "[-pi/2, pi/2] rad (the angle the figures are held at, on the braking curve); kicks stay the "
                         "scripted controller's (default velocity)")
+    p.add_argument("--observation", choices=("raw", "scaled"), default="raw",
+                   help="what the network sees: raw, the 36-D observation in SI units (rod spins up to 314 rad/s beside "
+                        "positions under 1 m), or scaled, each quantity divided by a typical size and clipped at +-5 "
+                        "(foos_policy.observation.OBS_SCALE). The saved model's observation box says which, so evaluate "
+                        "and policy_node feed it the same view (default raw, as the shipped policies)")
     p.add_argument("--action-cost", type=float, default=0.0, metavar="C",
                    help="a cost each step of C times the mean squared action, each entry a share of its bound, meant to "
                         "pull corrections (--action residual) toward zero, the scripted controller's own play; at 0.05 "
@@ -125,6 +133,18 @@ def _entropy_coefficient(text: str):
     if not value >= 0:
         raise argparse.ArgumentTypeError(f"must be at least 0, got {text}")
     return value
+
+
+class ScaledObservation(gym.ObservationWrapper):
+    """What the learner sees with `--observation scaled`: the env (and its action map) keeps the raw observation.
+    The bounded box is saved with the model, so evaluate and policy_node scale what they feed it too."""
+
+    def __init__(self, env):
+        super().__init__(env)
+        self.observation_space = gym.spaces.Box(-OBS_SCALED_BOUND, OBS_SCALED_BOUND, (OBS_SIZE,), np.float32)
+
+    def observation(self, observation):
+        return scaled_observation(observation)
 
 
 def default_name(algo: str, reset: str, opponent: str, seed: int) -> str:
@@ -220,6 +240,8 @@ def train(args) -> dict:
                            spin_penalty=args.spin_penalty, opponent_delay=args.opponent_delay,
                            view=args.view, opponent_view=args.opponent_view, params_file=args.params_file, action=args.action,
                            action_cost=args.action_cost)
+            if args.observation == "scaled":
+                env = ScaledObservation(env)
             env.reset(seed=args.seed * 1000 + rank)
             return env
         return make
@@ -253,7 +275,8 @@ def train(args) -> dict:
         "learner": args.learner, "reward": args.reward, "own_goal_penalty": args.own_goal_penalty,
         "spin_penalty": args.spin_penalty, "curriculum": args.curriculum,
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
-        "params_file": args.params_file, "action": args.action, "ent_coef": args.ent_coef, "action_cost": args.action_cost,
+        "params_file": args.params_file, "action": args.action, "observation": args.observation,
+        "ent_coef": args.ent_coef, "action_cost": args.action_cost,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
         "command": "train " + " ".join(sys.argv[1:]) if sys.argv else "",
