@@ -75,6 +75,7 @@ class ProfileDrives:
         self.lead = np.zeros(len(JOINT_NAMES)) if lead is None else np.asarray(lead, dtype=float)
         self._max_lead = float(self.lead.max())
         self.delay, self.speed, self.accel, self.jerk = effective_limits(nominal, effects)
+        self._negative_speed = -self.speed
         self._min_delay = float(self.delay.min())
         self.history = CommandHistory(self.delay)
         # Without dead time a drive acts on the last command at once: no history to search (every step counts).
@@ -108,8 +109,8 @@ class ProfileDrives:
 
     def _update(self, time: float) -> None:
         commands = self._latest if self._instant else self.history.delayed_commands(time)
-        goal = np.minimum(np.maximum(commands, -self.speed), self.speed)
-        if not np.array_equal(goal, self.plan.target):
+        goal = np.minimum(np.maximum(commands, self._negative_speed), self.speed)
+        if goal.tolist() != self.plan.target.tolist():  # (16 finite floats: cheaper as lists than np.array_equal)
             v, a = self.state(time)
             self.plan = scurve.plan(v, a, goal, self.accel, self.jerk)
             self.plan_time = time

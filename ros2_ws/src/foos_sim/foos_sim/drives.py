@@ -131,7 +131,8 @@ class FollowingDrives:
         self._stop_target = _view(data.ctrl, stopped)
         self._stop_low = model.jnt_range[joints[stopped], 0] + STOP_ZONE
         self._stop_high = model.jnt_range[joints[stopped], 1] - STOP_ZONE
-        self._stopped_list, self._stop_low_list, self._stop_high_list = stopped.tolist(), self._stop_low.tolist(), self._stop_high.tolist()
+        self._stops = list(zip(stopped.tolist(), self._stop_low.tolist(), self._stop_high.tolist()))  # (drive, low, high)
+        self._magnitude = np.zeros(model.nu)
         self._quiet = False
         self.timestep = 0.0
         self.set_timestep(float(model.opt.timestep))
@@ -160,17 +161,16 @@ class FollowingDrives:
             return
         change, within, qvel, ctrl = self._change, self._within, self._qvel, self._ctrl
         np.subtract(ctrl, qvel, out=change)
-        np.less_equal(np.abs(change), self._reach, out=within)
+        np.less_equal(np.abs(change, out=self._magnitude), self._reach, out=within)
         # Started at a target into its stop, a slide went 9 mm into MuJoCo's soft stop (5 mm with its force). (Eight
         # slides: plain Python costs less than numpy's passes.)
-        for k, position, target, low, high in zip(self._stopped_list, self._stop_qpos.tolist(), self._stop_target.tolist(),
-                                                  self._stop_low_list, self._stop_high_list):
+        for (k, low, high), position, target in zip(self._stops, self._stop_qpos.tolist(), self._stop_target.tolist()):
             if (position > high and target > 0.0) or (position < low and target < 0.0):
                 within[k] = False
         self._moved = True
         np.copyto(qvel, ctrl, where=within)
         # Once every drive is at its target, nothing changes that until a target does or a rod is jolted.
-        self._quiet = np.count_nonzero(within) == len(within)
+        self._quiet = bool(within.all())
 
     def efforts(self, data: mujoco.MjData) -> np.ndarray:
         """Each drive's force over the last step: its servo's and what starting at the target took."""

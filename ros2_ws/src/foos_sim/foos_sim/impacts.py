@@ -230,11 +230,16 @@ class ImpactSolver:
             # collides the pairs in order, floors first, so a last contact with a floor means floors only.
             ball, wall_or_figure = self.ball_geom, self.wall_or_figure
             contacts = data.contact
-            g1, g2 = contacts.geom[ncon - 1].tolist()
+            geoms = contacts.geom[:ncon].tolist()
+            g1, g2 = geoms[-1]
             if wall_or_figure[g1 + g2 - ball]:
-                near = [i for i, (g1, g2) in enumerate(contacts.geom[:ncon].tolist()) if self._may_strike(g1 + g2 - ball)]
+                # _may_strike, inlined (it runs for every contact of every step with a wall or figure near the ball)
+                rod_of, reachable = self.rod_of, self.reachable
+                near = [i for i, (g1, g2) in enumerate(geoms)
+                        if wall_or_figure[g1 + g2 - ball]
+                        and (reachable is None or rod_of[g1 + g2 - ball] is None or rod_of[g1 + g2 - ball][2] in reachable)]
                 if near:
-                    return self._screen(data, contacts, near)
+                    return self._screen(data, contacts, near, geoms)
         vz = float(data.qvel[self.ball_qvel + 2])
         if vz < -self.field_min_speed and self._landing(data):
             return self._resolve_impacts(data, self._contacts_for_impacts(data))
@@ -269,7 +274,7 @@ class ImpactSolver:
                 listed.append((i, other, -1.0 if g1 == ball else 1.0))  # MuJoCo's normal points from geom1 to geom2
         return _Contacts.of(self, data, listed)
 
-    def _screen(self, data: mujoco.MjData, contacts, near: list[int]) -> bool:
+    def _screen(self, data: mujoco.MjData, contacts, near: list[int], geoms: list) -> bool:
         """The walls and figures reported near the ball: is one hit in this step? Before any Jacobian: a
         surface is hit when the relative normal velocity closes the gap within the step (a figure point's
         velocity from its rod's slide and rotation)."""
@@ -281,9 +286,9 @@ class ImpactSolver:
         figure_reach = (speed + self.figure_speed_limit) * h
         due = False
         touching = None
-        ncon = data.ncon
-        geoms, dists, frames = contacts.geom[:ncon].tolist(), contacts.dist[:ncon].tolist(), contacts.frame[:ncon, :3].tolist()
-        positions = None
+        ncon = len(geoms)
+        dists, frames = contacts.dist[:ncon].tolist(), contacts.frame[:ncon, :3].tolist()
+        positions = xpos = None
         for i in near:
             g1, g2 = geoms[i]
             other, sign = (g2, -1.0) if g1 == ball else (g1, 1.0)  # MuJoCo's normal points from geom1 to geom2
@@ -300,9 +305,9 @@ class ImpactSolver:
             if rod is not None:
                 body, slide, rotate = rod
                 if positions is None:
-                    positions = contacts.pos[:ncon].tolist()
+                    positions, xpos = contacts.pos[:ncon].tolist(), data.xpos.tolist()
                 px, py, pz = positions[i]
-                cx, cy, cz = data.xpos[body].tolist()
+                cx, cy, cz = xpos[body]
                 w = qvel[rotate]  # about +x: a point moves by w x (p - c) = w (0, -(pz - cz), py - cy)
                 u -= nx * qvel[slide] - ny * w * (pz - cz) + nz * w * (py - cy)
             u *= sign
