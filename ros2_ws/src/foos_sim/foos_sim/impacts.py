@@ -327,12 +327,13 @@ class ImpactSolver:
 
     def _landing(self, data: mujoco.MjData) -> bool:
         """Whether a falling ball meets the floor (met as the plane it stands for, floor_below) in this step."""
-        floor = self.floor_below(data)
-        if floor is None:
+        # floor_below's test without its arrays: the floor's normal is +z, so the ball's normal velocity is vz.
+        z = float(data.qpos[self.ball_qpos + 2])
+        gap = z - self.ball_radius
+        vx, vy, vz = data.qvel[self.ball_qvel:self.ball_qvel + 3].tolist()
+        if gap > (math.sqrt(vx * vx + vy * vy + vz * vz) + self.figure_speed_limit) * self.timestep:
             return False
-        gap, normal, _ = floor
-        u = float(normal @ data.qvel[self.ball_qvel:self.ball_qvel + 3])
-        return u < -self.field_min_speed and gap + u * self.timestep < 0.0
+        return vz < -self.field_min_speed and gap + vz * self.timestep < 0.0
 
     def after_step(self, data: mujoco.MjData) -> None:
         """After mj_step2: the rest of the impacts' position shift; the gaps, after an impact and every few
@@ -386,7 +387,7 @@ class ImpactSolver:
             inverse_mass = 1.0 / (self.mass_diagonal + damping)
             impulse, velocity_change, w_nn = self._normal_impulses(c, u0, gap, inverse_mass, servo_push)
             over = (damping > 0.0) & (np.abs(damping * velocity_change) > self.drive_impulse_limit)
-            if not over.any():
+            if not np.count_nonzero(over):
                 break
             damping[over] = 0.0
             servo_push[over] = -np.sign(velocity_change[over]) * self.drive_impulse_limit[over]
@@ -405,7 +406,7 @@ class ImpactSolver:
             stop = solve_lcp(w_nn[closing][:, closing], u2[closing])
             qvel += inverse_mass * (c.jac_normal[closing].T @ stop)
         self._steps_since_gaps = GAP_REFRESH_STEPS  # the ball's speed has changed: new gaps after this step
-        if separation.any():
+        if np.count_nonzero(separation):
             mujoco.mj_integratePos(self.model, data.qpos, separation, 1.0)
         if hit.size == 1:
             # The bounce happened t* = gap / |u| into the step (negative: the overlap shows it was already
@@ -443,10 +444,10 @@ class ImpactSolver:
             impulse[idx] = solve_lcp(w_nn[idx][:, idx], q)
             u1 = u_pushed + w_nn @ impulse
             joining = ~due & (u1 < -c.min_speed) & (gap + u1 * h < 0.0)
-            if not joining.any():
+            if not np.count_nonzero(joining):
                 break
             due |= joining
-        if not impulse.any():
+        if not np.count_nonzero(impulse):
             return impulse, np.zeros_like(pushed), w_nn
         return impulse, inverse_mass * (jn.T @ impulse) + pushed, w_nn
 
@@ -472,7 +473,7 @@ class ImpactSolver:
         ball alone left a pressed ball 5 mm inside the foot for tens of steps (MuJoCo's contact, stiff as it
         may be at 2 ms, corrects an overlap at 0.3 m/s per mm)."""
         overlapping = (c.dist < 0.0) & ~c.is_floor
-        if not overlapping.any():
+        if not np.count_nonzero(overlapping):
             return np.zeros(self.model.nv)
         # Minimise |dq|_M subject to gap_i + Jn_i dq >= 0 (a clearance more where overlapping): dq = M^-1 Jn^T l.
         # A surface the move presses the ball against is left just touching it (TOUCHING deep), so that its
@@ -515,10 +516,12 @@ class _Contacts:
     @classmethod
     def of(cls, solver: ImpactSolver, data: mujoco.MjData, listed: list) -> "_Contacts":
         contact = data.contact
+        # Each array read once (every read of a contact field builds the whole array).
+        dists, frames, positions = contact.dist, contact.frame, contact.pos
         surfaces = [solver.surface_of[other] for _, other, _ in listed]
-        dist = [float(contact.dist[i]) for i, _, _ in listed]
-        normal = [sign * contact.frame[i, :3] for i, _, sign in listed]
-        jac = [solver.contact_jacobian(data, contact.pos[i], other) for i, other, _ in listed]
+        dist = [float(dists[i]) for i, _, _ in listed]
+        normal = [sign * frames[i, :3] for i, _, sign in listed]
+        jac = [solver.contact_jacobian(data, positions[i], other) for i, other, _ in listed]
         # The floor under the ball takes part when within a step's reach: a foot striking down presses the
         # ball into it.
         floor = solver.floor_below(data)

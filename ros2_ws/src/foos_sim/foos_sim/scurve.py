@@ -71,7 +71,7 @@ def plan(v0, a0, target, accel, jerk) -> Profile:
     beyond = target - v_stop
     s = np.sign(beyond)
     brake_only = np.abs(beyond) <= SETTLED
-    braking = bool(brake_only.any())  # rare (a command equal to where braking leads): its passes only then
+    braking = np.count_nonzero(brake_only) > 0  # rare (a command equal to where braking leads): its passes only then
     if braking:
         s = np.where(brake_only, 1.0, s)
     gain = s * (target - v0)  # velocity to gain along s
