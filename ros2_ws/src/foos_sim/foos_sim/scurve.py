@@ -23,7 +23,8 @@ times or vectorised over a calibration fit's lanes. A velocity target needs only
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -42,17 +43,20 @@ class Profile:
     jerk3: np.ndarray
     t3: np.ndarray
     target: np.ndarray
-    # Per lane, what every evaluation of the velocity needs (computed once per plan: the fast physics evaluates a
-    # plan every few steps, each numpy pass on 16 lanes costing about a microsecond): the acceleration through
-    # phases 2 and 3, and half of each phase's jerk.
-    a1: np.ndarray = field(init=False, repr=False, compare=False)
-    half_jerk1: np.ndarray = field(init=False, repr=False, compare=False)
-    half_jerk3: np.ndarray = field(init=False, repr=False, compare=False)
+    # Per lane, what every evaluation of the velocity needs, computed at the first (the fast physics evaluates a plan
+    # every few steps, each numpy pass on 16 lanes costing about a microsecond; a calibration fit's plans in
+    # `follow` are never evaluated so): the acceleration through phases 2 and 3, and half of each phase's jerk.
+    @cached_property
+    def a1(self) -> np.ndarray:
+        return self.a0 + self.jerk1 * self.t1
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "a1", self.a0 + self.jerk1 * self.t1)
-        object.__setattr__(self, "half_jerk1", 0.5 * self.jerk1)
-        object.__setattr__(self, "half_jerk3", 0.5 * self.jerk3)
+    @cached_property
+    def half_jerk1(self) -> np.ndarray:
+        return 0.5 * self.jerk1
+
+    @cached_property
+    def half_jerk3(self) -> np.ndarray:
+        return 0.5 * self.jerk3
 
     @property
     def duration(self) -> np.ndarray:
