@@ -121,16 +121,14 @@ def _in_phases(profile: Profile, elapsed):
     """The velocity at `elapsed` (before the profile ends) and what the acceleration needs: (v, e1, e3, done).
 
     v0 + a0 e1 + J1 e1^2 / 2 + a1 (e2 + e3) + J3 e3^2 / 2, each e the time spent in its phase so far. (In place where
-    it can: on the fast physics' few lanes each numpy pass costs more than its arithmetic; the operations and their
-    order, hence every bit of the result, are those of the formula.)"""
+    it can, a single lane's numpy scalars included: on the fast physics' few lanes each numpy pass costs more than its
+    arithmetic; the operations and their order, hence every bit of the result, are those of the formula.)"""
     elapsed = np.asarray(elapsed, dtype=float)
     e1 = np.minimum(np.maximum(elapsed, 0.0), profile.t1)
     rest = elapsed - profile.t1
-    e2 = np.maximum(rest, 0.0)
-    np.minimum(e2, profile.t2, out=e2)
+    e2 = np.minimum(np.maximum(rest, 0.0), profile.t2)
     rest -= profile.t2
-    e3 = np.maximum(rest, 0.0)
-    np.minimum(e3, profile.t3, out=e3)
+    e3 = np.minimum(np.maximum(rest, 0.0), profile.t3)
     v = profile.half_jerk1 * e1
     v += profile.a0
     v *= e1
