@@ -128,10 +128,10 @@ class FollowingDrives:
         self._stopped = _view(np.arange(model.nu), np.flatnonzero(model.jnt_limited[joints].astype(bool)))
         stopped = np.arange(model.nu)[self._stopped]
         self._stop_qpos = _view(data.qpos, model.jnt_qposadr[joints[stopped]])
-        self._stop_target = _view(data.ctrl, stopped)
         self._stop_low = model.jnt_range[joints[stopped], 0] + STOP_ZONE
         self._stop_high = model.jnt_range[joints[stopped], 1] - STOP_ZONE
-        self._stopped_list, self._stop_low_list, self._stop_high_list = stopped.tolist(), self._stop_low.tolist(), self._stop_high.tolist()
+        self._stops = list(zip(stopped.tolist(), self._stop_low.tolist(), self._stop_high.tolist()))  # (drive, low, high)
+        self._magnitude = np.zeros(model.nu)
         self._quiet = False
         self.timestep = 0.0
         self.set_timestep(float(model.opt.timestep))
@@ -160,17 +160,22 @@ class FollowingDrives:
             return
         change, within, qvel, ctrl = self._change, self._within, self._qvel, self._ctrl
         np.subtract(ctrl, qvel, out=change)
-        np.less_equal(np.abs(change), self._reach, out=within)
+        np.less_equal(np.abs(change, out=self._magnitude), self._reach, out=within)
         # Started at a target into its stop, a slide went 9 mm into MuJoCo's soft stop (5 mm with its force). (Eight
-        # slides: plain Python costs less than numpy's passes.)
-        for k, position, target, low, high in zip(self._stopped_list, self._stop_qpos.tolist(), self._stop_target.tolist(),
-                                                  self._stop_low_list, self._stop_high_list):
-            if (position > high and target > 0.0) or (position < low and target < 0.0):
-                within[k] = False
+        # slides: plain Python costs less than numpy's passes; a slide short of its stop zones needs no more.)
+        for (k, low, high), position in zip(self._stops, self._stop_qpos.tolist()):
+            if not low <= position <= high:
+                target = float(ctrl[k])
+                if (position > high and target > 0.0) or (position < low and target < 0.0):
+                    within[k] = False
         self._moved = True
-        np.copyto(qvel, ctrl, where=within)
-        # Once every drive is at its target, nothing changes that until a target does or a rod is jolted.
+        # Once every drive is at its target, nothing changes that until a target does or a rod is jolted. (On 16
+        # drives count_nonzero and a plain copy cost a fraction of ndarray.all() and a masked copy.)
         self._quiet = np.count_nonzero(within) == len(within)
+        if self._quiet:
+            np.copyto(qvel, ctrl)
+        else:
+            np.copyto(qvel, ctrl, where=within)
 
     def efforts(self, data: mujoco.MjData) -> np.ndarray:
         """Each drive's force over the last step: its servo's and what starting at the target took."""

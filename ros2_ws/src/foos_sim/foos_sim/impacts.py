@@ -230,11 +230,16 @@ class ImpactSolver:
             # collides the pairs in order, floors first, so a last contact with a floor means floors only.
             ball, wall_or_figure = self.ball_geom, self.wall_or_figure
             contacts = data.contact
-            g1, g2 = contacts.geom[ncon - 1].tolist()
+            geoms = contacts.geom[:ncon].tolist()
+            g1, g2 = geoms[-1]
             if wall_or_figure[g1 + g2 - ball]:
-                near = [i for i, (g1, g2) in enumerate(contacts.geom[:ncon].tolist()) if self._may_strike(g1 + g2 - ball)]
+                # _may_strike, inlined (it runs for every contact of every step with a wall or figure near the ball)
+                rod_of, reachable = self.rod_of, self.reachable
+                near = [i for i, (g1, g2) in enumerate(geoms)
+                        if wall_or_figure[g1 + g2 - ball]
+                        and (reachable is None or rod_of[g1 + g2 - ball] is None or rod_of[g1 + g2 - ball][2] in reachable)]
                 if near:
-                    return self._screen(data, contacts, near)
+                    return self._screen(data, contacts, near, geoms)
         vz = float(data.qvel[self.ball_qvel + 2])
         if vz < -self.field_min_speed and self._landing(data):
             return self._resolve_impacts(data, self._contacts_for_impacts(data))
@@ -269,7 +274,7 @@ class ImpactSolver:
                 listed.append((i, other, -1.0 if g1 == ball else 1.0))  # MuJoCo's normal points from geom1 to geom2
         return _Contacts.of(self, data, listed)
 
-    def _screen(self, data: mujoco.MjData, contacts, near: list[int]) -> bool:
+    def _screen(self, data: mujoco.MjData, contacts, near: list[int], geoms: list) -> bool:
         """The walls and figures reported near the ball: is one hit in this step? Before any Jacobian: a
         surface is hit when the relative normal velocity closes the gap within the step (a figure point's
         velocity from its rod's slide and rotation)."""
@@ -281,9 +286,9 @@ class ImpactSolver:
         figure_reach = (speed + self.figure_speed_limit) * h
         due = False
         touching = None
-        ncon = data.ncon
-        geoms, dists, frames = contacts.geom[:ncon].tolist(), contacts.dist[:ncon].tolist(), contacts.frame[:ncon, :3].tolist()
-        positions = None
+        ncon = len(geoms)
+        dists, frames = contacts.dist[:ncon].tolist(), contacts.frame[:ncon, :3].tolist()
+        positions = xpos = None
         for i in near:
             g1, g2 = geoms[i]
             other, sign = (g2, -1.0) if g1 == ball else (g1, 1.0)  # MuJoCo's normal points from geom1 to geom2
@@ -300,9 +305,9 @@ class ImpactSolver:
             if rod is not None:
                 body, slide, rotate = rod
                 if positions is None:
-                    positions = contacts.pos[:ncon].tolist()
+                    positions, xpos = contacts.pos[:ncon].tolist(), data.xpos.tolist()
                 px, py, pz = positions[i]
-                cx, cy, cz = data.xpos[body].tolist()
+                cx, cy, cz = xpos[body]
                 w = qvel[rotate]  # about +x: a point moves by w x (p - c) = w (0, -(pz - cz), py - cy)
                 u -= nx * qvel[slide] - ny * w * (pz - cz) + nz * w * (py - cy)
             u *= sign
@@ -322,12 +327,13 @@ class ImpactSolver:
 
     def _landing(self, data: mujoco.MjData) -> bool:
         """Whether a falling ball meets the floor (met as the plane it stands for, floor_below) in this step."""
-        floor = self.floor_below(data)
-        if floor is None:
+        # floor_below's test without its arrays: the floor's normal is +z, so the ball's normal velocity is vz.
+        z = float(data.qpos[self.ball_qpos + 2])
+        gap = z - self.ball_radius
+        vx, vy, vz = data.qvel[self.ball_qvel:self.ball_qvel + 3].tolist()
+        if gap > (math.sqrt(vx * vx + vy * vy + vz * vz) + self.figure_speed_limit) * self.timestep:
             return False
-        gap, normal, _ = floor
-        u = float(normal @ data.qvel[self.ball_qvel:self.ball_qvel + 3])
-        return u < -self.field_min_speed and gap + u * self.timestep < 0.0
+        return vz < -self.field_min_speed and gap + vz * self.timestep < 0.0
 
     def after_step(self, data: mujoco.MjData) -> None:
         """After mj_step2: the rest of the impacts' position shift; the gaps, after an impact and every few
@@ -381,7 +387,7 @@ class ImpactSolver:
             inverse_mass = 1.0 / (self.mass_diagonal + damping)
             impulse, velocity_change, w_nn = self._normal_impulses(c, u0, gap, inverse_mass, servo_push)
             over = (damping > 0.0) & (np.abs(damping * velocity_change) > self.drive_impulse_limit)
-            if not over.any():
+            if not np.count_nonzero(over):
                 break
             damping[over] = 0.0
             servo_push[over] = -np.sign(velocity_change[over]) * self.drive_impulse_limit[over]
@@ -400,7 +406,7 @@ class ImpactSolver:
             stop = solve_lcp(w_nn[closing][:, closing], u2[closing])
             qvel += inverse_mass * (c.jac_normal[closing].T @ stop)
         self._steps_since_gaps = GAP_REFRESH_STEPS  # the ball's speed has changed: new gaps after this step
-        if separation.any():
+        if np.count_nonzero(separation):
             mujoco.mj_integratePos(self.model, data.qpos, separation, 1.0)
         if hit.size == 1:
             # The bounce happened t* = gap / |u| into the step (negative: the overlap shows it was already
@@ -438,10 +444,10 @@ class ImpactSolver:
             impulse[idx] = solve_lcp(w_nn[idx][:, idx], q)
             u1 = u_pushed + w_nn @ impulse
             joining = ~due & (u1 < -c.min_speed) & (gap + u1 * h < 0.0)
-            if not joining.any():
+            if not np.count_nonzero(joining):
                 break
             due |= joining
-        if not impulse.any():
+        if not np.count_nonzero(impulse):
             return impulse, np.zeros_like(pushed), w_nn
         return impulse, inverse_mass * (jn.T @ impulse) + pushed, w_nn
 
@@ -467,7 +473,7 @@ class ImpactSolver:
         ball alone left a pressed ball 5 mm inside the foot for tens of steps (MuJoCo's contact, stiff as it
         may be at 2 ms, corrects an overlap at 0.3 m/s per mm)."""
         overlapping = (c.dist < 0.0) & ~c.is_floor
-        if not overlapping.any():
+        if not np.count_nonzero(overlapping):
             return np.zeros(self.model.nv)
         # Minimise |dq|_M subject to gap_i + Jn_i dq >= 0 (a clearance more where overlapping): dq = M^-1 Jn^T l.
         # A surface the move presses the ball against is left just touching it (TOUCHING deep), so that its
@@ -510,10 +516,12 @@ class _Contacts:
     @classmethod
     def of(cls, solver: ImpactSolver, data: mujoco.MjData, listed: list) -> "_Contacts":
         contact = data.contact
+        # Each array read once (every read of a contact field builds the whole array).
+        dists, frames, positions = contact.dist, contact.frame, contact.pos
         surfaces = [solver.surface_of[other] for _, other, _ in listed]
-        dist = [float(contact.dist[i]) for i, _, _ in listed]
-        normal = [sign * contact.frame[i, :3] for i, _, sign in listed]
-        jac = [solver.contact_jacobian(data, contact.pos[i], other) for i, other, _ in listed]
+        dist = [float(dists[i]) for i, _, _ in listed]
+        normal = [sign * frames[i, :3] for i, _, sign in listed]
+        jac = [solver.contact_jacobian(data, positions[i], other) for i, other, _ in listed]
         # The floor under the ball takes part when within a step's reach: a foot striking down presses the
         # ball into it.
         floor = solver.floor_below(data)

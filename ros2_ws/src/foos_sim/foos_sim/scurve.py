@@ -24,6 +24,7 @@ times or vectorised over a calibration fit's lanes. A velocity target needs only
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -42,6 +43,20 @@ class Profile:
     jerk3: np.ndarray
     t3: np.ndarray
     target: np.ndarray
+    # Per lane, what every evaluation of the velocity needs, computed at the first (the fast physics evaluates a plan
+    # every few steps, each numpy pass on 16 lanes costing about a microsecond; a calibration fit's plans in
+    # `follow` are never evaluated so): the acceleration through phases 2 and 3, and half of each phase's jerk.
+    @cached_property
+    def a1(self) -> np.ndarray:
+        return self.a0 + self.jerk1 * self.t1
+
+    @cached_property
+    def half_jerk1(self) -> np.ndarray:
+        return 0.5 * self.jerk1
+
+    @cached_property
+    def half_jerk3(self) -> np.ndarray:
+        return 0.5 * self.jerk3
 
     @property
     def duration(self) -> np.ndarray:
@@ -57,9 +72,12 @@ def plan(v0, a0, target, accel, jerk) -> Profile:
         v0, a0, target, accel, jerk = np.broadcast_arrays(v0, a0, target, accel, jerk)
     # Where braking the acceleration at once would leave the drive; the target lies beyond it (s = +1) or short.
     v_stop = v0 + a0 * np.abs(a0) / (2.0 * jerk)
-    s = np.sign(target - v_stop)
-    brake_only = np.abs(target - v_stop) <= SETTLED
-    s = np.where(brake_only, 1.0, s)
+    beyond = target - v_stop
+    s = np.sign(beyond)
+    brake_only = np.abs(beyond) <= SETTLED
+    braking = np.count_nonzero(brake_only) > 0  # rare (a command equal to where braking leads): its passes only then
+    if braking:
+        s = np.where(brake_only, 1.0, s)
     gain = s * (target - v0)  # velocity to gain along s
     a_start = s * a0
     peak = np.sqrt(np.maximum(jerk * gain + 0.5 * a_start * a_start, 0.0))
@@ -70,11 +88,12 @@ def plan(v0, a0, target, accel, jerk) -> Profile:
     gained = (a_start + peak) * t1 / 2.0 + peak * t3 / 2.0
     t2 = np.where(capped, np.maximum(gain - gained, 0.0) / np.maximum(peak, 1e-300), 0.0)
     jerk1 = s * np.sign(peak - a_start) * jerk
-    # Target already where braking leads: only bring the acceleration to zero.
-    t1 = np.where(brake_only, np.abs(a0) / jerk, t1)
-    jerk1 = np.where(brake_only, -np.sign(a0) * jerk, jerk1)
-    t2 = np.where(brake_only, 0.0, t2)
-    t3 = np.where(brake_only, 0.0, t3)
+    if braking:
+        # Target already where braking leads: only bring the acceleration to zero.
+        t1 = np.where(brake_only, np.abs(a0) / jerk, t1)
+        jerk1 = np.where(brake_only, -np.sign(a0) * jerk, jerk1)
+        t2 = np.where(brake_only, 0.0, t2)
+        t3 = np.where(brake_only, 0.0, t3)
     return Profile(v0=v0, a0=a0, jerk1=jerk1, t1=t1, t2=t2, jerk3=-s * jerk, t3=t3, target=target)
 
 
@@ -99,30 +118,40 @@ def evaluate(profile: Profile, elapsed) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 
 def _in_phases(profile: Profile, elapsed):
-    """The velocity at `elapsed` (before the profile ends) and what the acceleration needs: (v, e1, e3, a1, done).
+    """The velocity at `elapsed` (before the profile ends) and what the acceleration needs: (v, e1, e3, done).
 
-    v0 + a0 e1 + J1 e1^2 / 2 + a1 (e2 + e3) + J3 e3^2 / 2, each e the time spent in its phase so far."""
-    t1, t2 = profile.t1, profile.t2
-    e1 = np.minimum(np.maximum(elapsed, 0.0), t1)
-    rest = elapsed - t1
-    e2 = np.minimum(np.maximum(rest, 0.0), t2)
-    rest = rest - t2
+    v0 + a0 e1 + J1 e1^2 / 2 + a1 (e2 + e3) + J3 e3^2 / 2, each e the time spent in its phase so far. (In place where
+    it can, a single lane's numpy scalars included: on the fast physics' few lanes each numpy pass costs more than its
+    arithmetic; the operations and their order, hence every bit of the result, are those of the formula.)"""
+    elapsed = np.asarray(elapsed, dtype=float)
+    e1 = np.minimum(np.maximum(elapsed, 0.0), profile.t1)
+    rest = elapsed - profile.t1
+    e2 = np.minimum(np.maximum(rest, 0.0), profile.t2)
+    rest -= profile.t2
     e3 = np.minimum(np.maximum(rest, 0.0), profile.t3)
-    a1 = profile.a0 + profile.jerk1 * t1  # the acceleration through phases 2 and 3's start
-    v = profile.v0 + (profile.a0 + 0.5 * profile.jerk1 * e1) * e1 + a1 * (e2 + e3) + 0.5 * profile.jerk3 * e3 * e3
-    return v, e1, e3, a1, rest >= profile.t3
+    v = profile.half_jerk1 * e1
+    v += profile.a0
+    v *= e1
+    v += profile.v0
+    e2 += e3
+    e2 *= profile.a1
+    v += e2
+    squared = profile.half_jerk3 * e3
+    squared *= e3
+    v += squared
+    return v, e1, e3, rest >= profile.t3
 
 
 def state(profile: Profile, elapsed: float) -> tuple[np.ndarray, np.ndarray]:
     """evaluate()'s (velocity, acceleration) at one time, in fewer numpy passes (a re-plan's start)."""
-    v, e1, e3, a1, done = _in_phases(profile, elapsed)
-    a = np.where(e1 < profile.t1, profile.a0 + profile.jerk1 * e1, a1 + profile.jerk3 * e3)
+    v, e1, e3, done = _in_phases(profile, elapsed)
+    a = np.where(e1 < profile.t1, profile.a0 + profile.jerk1 * e1, profile.a1 + profile.jerk3 * e3)
     return np.where(done, profile.target, v), np.where(done, 0.0, a)
 
 
 def velocity(profile: Profile, elapsed: np.ndarray) -> np.ndarray:
     """evaluate()'s velocity alone, in fewer numpy passes (the fast physics' servo targets, every few steps)."""
-    v, _, _, _, done = _in_phases(profile, elapsed)
+    v, _, _, done = _in_phases(profile, elapsed)
     return np.where(done, profile.target, v)
 
 

@@ -63,7 +63,7 @@ from .drives import FollowingDrives, ImplicitForceLimits
 from .effects import DentSlopes
 from .impacts import ImpactSolver
 from .model_builder import build_model
-from .sweeps import RodIndex, SweepTest, free_box
+from .sweeps import NO_WINDOW, RodIndex, SweepTest, free_box
 
 HOME_SCORES = "home"  # ball centre crosses y = +half_length inside the away goal mouth
 AWAY_SCORES = "away"
@@ -93,6 +93,9 @@ class TableSimulation:
         self.model, builder = build_model(self.params, physics)
         self.physics = builder.physics_name
         self.data = mujoco.MjData(self.model)
+        # Views of the state and the drives' targets (each read of data.qpos builds a new array object; MjData keeps
+        # its buffers for life): the fast physics reads them several times a step.
+        self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
         self._impacts = (
             ImpactSolver(self.model, builder.impact_surfaces, FIGURE_SPEED_MARGIN * builder.figure_speed_limit(),
                          builder.reference_contact_duration(),
@@ -227,7 +230,7 @@ class TableSimulation:
         values = np.asarray(command, dtype=float).ravel()
         if values.size != COMMAND_SIZE:
             raise CommandError(f"a rod command has {COMMAND_SIZE} values, got {values.size}")
-        if not np.isfinite(values).all():
+        if np.count_nonzero(np.isfinite(values)) != values.size:  # (count_nonzero: a fraction of ndarray.all()'s cost)
             raise CommandError("a rod command must not contain NaN or infinite values")
         return values
 
@@ -432,12 +435,12 @@ class TableSimulation:
                 # A part: its middle's setpoint alone (the 32-step block of targets() is for whole steps).
                 targets = profiles.sub_targets(data.time, np.array([0.5 * h]))[0] if split else profiles.targets(data.time, h)
                 if targets is not None:
-                    data.ctrl[self._all_ctrl] = targets
+                    self._ctrl[self._all_ctrl] = targets
                     drives.disturb()
-                window = self._sweeps.window(data.qpos.tolist(), data.qvel.tolist(), data.ctrl.tolist(), h)
-                runs = window.sub_steps(h)
+                window = self._sweeps.window(self._qpos.tolist(), self._qvel.tolist(), self._ctrl.tolist(), h)
                 impacts.reachable = window.reachable
-                if len(runs) == 1 and runs[0][1] == 1:
+                runs = None if window is NO_WINDOW else window.sub_steps(h)  # NO_WINDOW (the usual step): one step
+                if runs is None or (len(runs) == 1 and runs[0][1] == 1):
                     impacts.set_motion(data, FIGURE_SPEED_MARGIN * window.figure_speed, h)
                     self._fast_step()
                 else:
@@ -473,7 +476,7 @@ class TableSimulation:
                     drives.set_timestep(length)
                     impacts.set_motion(data, FIGURE_SPEED_MARGIN * figure_speed, length)
                     for _ in range(count):
-                        data.ctrl[self._all_ctrl] = targets[k]
+                        self._ctrl[self._all_ctrl] = targets[k]
                         k += 1
                         drives.disturb()
                         struck = self._fast_step()
@@ -484,8 +487,8 @@ class TableSimulation:
                 rest = end - data.time
                 runs = []
                 if struck and rest > 1e-3 * h:
-                    data.ctrl[self._all_ctrl] = profiles.sub_targets(data.time, np.array([0.5 * rest]))[0]
-                    window = self._sweeps.window(data.qpos.tolist(), data.qvel.tolist(), data.ctrl.tolist(), rest)
+                    self._ctrl[self._all_ctrl] = profiles.sub_targets(data.time, np.array([0.5 * rest]))[0]
+                    window = self._sweeps.window(self._qpos.tolist(), self._qvel.tolist(), self._ctrl.tolist(), rest)
                     runs = window.sub_steps(rest)
                     impacts.reachable = window.reachable
         finally:
@@ -497,7 +500,7 @@ class TableSimulation:
         ball's or a rod's motion in it."""
         model, data, impacts, drives, dents = self.model, self.data, self._impacts, self._drives, self._dent_slopes
         drives.update()
-        np.copyto(self._step_qvel, data.qvel)  # the velocities through this step (last_touch_joint_velocities)
+        np.copyto(self._step_qvel, self._qvel)  # the velocities through this step (last_touch_joint_velocities)
         if dents is not None:
             data.xfrc_applied[self._ball_body, :2] = dents.force(*data.qpos[self._ball_qpos][:3].tolist())
         mujoco.mj_step1(model, data)
@@ -531,7 +534,7 @@ class TableSimulation:
 
     def _goal_now(self) -> Optional[str]:
         adr = self._ball_qpos.start
-        x, y = self.data.qpos[adr:adr + 2].tolist()
+        x, y = self._qpos[adr:adr + 2].tolist()
         if abs(x) > self.goal_half_width:
             return None
         if y > self.half_length:

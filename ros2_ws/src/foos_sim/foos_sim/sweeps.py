@@ -104,6 +104,12 @@ class Window:
         return runs
 
 
+# The step as one, where no figure can touch the ball (Window is frozen: one instance serves every such step), and a
+# scan that found no rod (the usual case: most steps the ball is beyond every foot's reach).
+NO_WINDOW = Window(0.0, 1.0, 0.0, LEAST_FIGURE_SPEED)
+_NO_SCAN = (Window(1.0, 0.0, 0.0, LEAST_FIGURE_SPEED), ())
+
+
 class SweepTest:
     def __init__(self, params: dict, rods: list[RodIndex], figure_reach: float, ball_qpos: int, ball_qvel: int,
                  walls: tuple[float, float, float]):
@@ -155,7 +161,7 @@ class SweepTest:
             if set(more) - set(striking):
                 window, _ = self._scan(qpos, qvel, ctrl, h, False, extra, ())
         if window.end < window.start:
-            return Window(0.0, 1.0, 0.0, LEAST_FIGURE_SPEED)  # no figure can touch the ball in this step
+            return NO_WINDOW  # no figure can touch the ball in this step
         return window
 
     def _scan(self, qpos: list, qvel: list, ctrl: list, h: float, straight: bool, extra: float,
@@ -167,11 +173,13 @@ class SweepTest:
         vx, vy, vz = qvel[bv], qvel[bv + 1], qvel[bv + 2]
         travel = math.sqrt(vx * vx + vy * vy + vz * vz) * h + extra
         # The ball's centre stays at least this far below the axes through the step (gravity only lowers it).
-        below = self.axis_height - (bz + max(vz, 0.0) * h) - extra
+        below = self.axis_height - (bz + (vz if vz > 0.0 else 0.0) * h) - extra
         reach = self.foot_reach + travel
-        found = []
         rods, ys = self.rods, self.ys
         i = bisect.bisect_left(ys, by - reach)
+        if i == len(ys) or ys[i] > by + reach:
+            return _NO_SCAN  # no rod within a foot's reach along the table
+        found = []
         speed, turning, start, end = LEAST_FIGURE_SPEED, 0.0, 1.0, 0.0  # no part yet: start > end
         while i < len(ys) and ys[i] <= by + reach:
             rod = rods[i]
@@ -189,21 +197,30 @@ class SweepTest:
             nearest = 0.0
             if rod.figures > 1:
                 nearest = (min(max(round(across / rod.spacing + middle), 0), rod.figures - 1) - middle) * rod.spacing
-            slide_speed = max(abs(qvel[rod.slide_dof]), abs(ctrl[rod.slide_ctrl]))
+            slide_now, slide_target = abs(qvel[rod.slide_dof]), abs(ctrl[rod.slide_ctrl])
+            slide_speed = slide_target if slide_target > slide_now else slide_now
             if abs(across - nearest) > self.across + travel + slide_speed * h:
                 continue
             now, target = qvel[rod.rotate_dof], ctrl[rod.rotate_ctrl]
-            fastest = max(abs(now), abs(target))
+            fastest = abs(target) if abs(target) > abs(now) else abs(now)
             if straight and (extra == 0.0 or i - 1 in exempt):
                 part = self._meeting(rod, qpos, qvel, ctrl, h, nearest)
             else:
                 part = self._part(qpos[rod.rotate_qpos], now, target, h, math.atan2(dy, -dz), closest, travel)
             if part is None:
                 continue
-            turning = max(turning, fastest * self.figure_reach)
-            speed = max(speed, slide_speed + fastest * self.figure_reach)
-            start, end = min(start, part[0]), max(end, part[1])
+            rim = fastest * self.figure_reach
+            if rim > turning:
+                turning = rim
+            if slide_speed + rim > speed:
+                speed = slide_speed + rim
+            if part[0] < start:
+                start = part[0]
+            if part[1] > end:
+                end = part[1]
             found.append(i - 1)
+        if not found:
+            return _NO_SCAN
         return Window(start, end, turning, speed, frozenset(rods[k].rotate_dof for k in found)), tuple(found)
 
     def _meeting(self, rod: RodIndex, qpos: list, qvel: list, ctrl: list, h: float, nearest: float) -> tuple[float, float] | None:
@@ -220,20 +237,25 @@ class SweepTest:
         lag = abs(qvel[rod.rotate_dof] - turn) * reach + abs(qvel[rod.slide_dof] - slide)  # m/s off the path
         closing = math.sqrt(vx * vx + vy * vy + vz * vz) + abs(turn) * reach + abs(slide) + lag
         touch = self.radius
-        blocks = self.blocks
+        (low0, high0, thick0, wide0), (low1, high1, thick1, wide1) = self.blocks  # the foot, the body
+        sin_, cos_, sqrt = math.sin, math.cos, math.sqrt
 
         def gap(t: float) -> float:
             theta = angle + turn * t
-            sin, cos = math.sin(theta), math.cos(theta)
+            sin, cos = sin_(theta), cos_(theta)
             y, z = py + vy * t, pz + vz * t
             along, side, x = y * sin - z * cos, abs(y * cos + z * sin), abs(px + (vx - slide) * t)
-            least = math.inf
-            for low, high, thick, wide in blocks:
-                ds = low - along if along < low else (along - high if along > high else 0.0)
-                dl = side - thick if side > thick else 0.0
-                dx = x - wide if x > wide else 0.0
-                least = min(least, ds * ds + dl * dl + dx * dx)
-            return math.sqrt(least) - touch - lag * t
+            ds = low0 - along if along < low0 else (along - high0 if along > high0 else 0.0)
+            dl = side - thick0 if side > thick0 else 0.0
+            dx = x - wide0 if x > wide0 else 0.0
+            least = ds * ds + dl * dl + dx * dx
+            ds = low1 - along if along < low1 else (along - high1 if along > high1 else 0.0)
+            dl = side - thick1 if side > thick1 else 0.0
+            dx = x - wide1 if x > wide1 else 0.0
+            other = ds * ds + dl * dl + dx * dx
+            if other < least:
+                least = other
+            return sqrt(least) - touch - lag * t
 
         if closing <= 0.0:  # a still ball, a still rod at its target: the gap stays what it is all step
             return (0.0, 1.0) if gap(0.0) <= 1e-4 else None
