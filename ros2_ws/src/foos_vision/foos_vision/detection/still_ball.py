@@ -52,7 +52,7 @@ import numpy as np
 
 from foos_core.table_geometry import TableGeometry
 
-WORK_WIDTH = 960  # px: frames are searched at this width (a 1080p ball of 16-40 px keeps 8-20 px)
+WORK_WIDTH = 1280  # px: frames are searched at this width (a 1080p ball of 16-40 px keeps 11-27 px)
 FELT_CHROMA_TOL = 6.0  # Lab a/b levels around the felt's mode that are still felt
 FELT_LIGHT_TOL = 45.0  # L levels: the felt's light falls off toward the walls
 MIN_FELT_FILL = 0.5  # of the felt's closed stretch that is felt-coloured
@@ -78,6 +78,7 @@ ROD_TURN = 10.0  # degrees from the rods' common direction: perspective turns pa
 ROD_ANGLE_STEP = 0.5  # degrees: the Hough transform's angle resolution (at most 4 px off over a 500 px rod)
 TINT_GAIN = 3.0  # light levels per chroma level: the felt's light varies about 3x as much as its chroma (15-24 vs 7-8)
 MIN_SCORE = 0.6  # below this the best candidate is not reported: nothing in the frame is clearly a ball
+MIN_TINT_SCORE = 0.7  # the same for a candidate found by its tint: more things on a table are tinted than lit
 MIN_LEAD = 0.1  # the best's score over the next best's more than a ball's width away: less, and the pick is a guess
 
 
@@ -396,9 +397,10 @@ def _pick(candidates: list[StillCandidate], field: Optional[FeltField]) -> Optio
     """The ball, or None. The light comes first: its best candidate is the ball when its score reaches MIN_SCORE
     and it leads every other light candidate more than a ball's width away by MIN_LEAD. Only where the light has no
     clear ball (a ball in a figure's shade shows a thin lit cap) may a tint candidate be the ball, and it must then
-    lead every candidate of both cues by MIN_LEAD: a tint is a weaker sign than light, and many things are tinted."""
+    lead every candidate of both cues by MIN_LEAD and reach MIN_TINT_SCORE: a tint is a weaker sign than light, and
+    many things are tinted (an end wall's lit beige, a figure whose paint a lamp saturates past its team's colour)."""
     def leader(pool: list[StillCandidate]) -> Optional[StillCandidate]:
-        if not pool or pool[0].score < MIN_SCORE:
+        if not pool or pool[0].score < (MIN_SCORE if pool[0].cue == "light" else MIN_TINT_SCORE):
             return None
         return pool[0] if pool[0].score - _rival_score(pool[0], pool, field) >= MIN_LEAD else None
 
