@@ -232,6 +232,26 @@ def test_white_light_has_no_tint():
     assert tinted[ball] > 60, tinted[ball]  # the yellow ball
 
 
+def test_lit_felt_has_no_tint():
+    # A lamp lights the felt unevenly: a lit patch of a saturated felt is the same cloth in more light, its chroma
+    # raised with its lightness (a stronger green), not a tint; a yellow ball lit as much is tinted. On renders, such
+    # lit patches by the walls were picked as the ball once frames were searched at 1280 px
+    # (vision-2026-11-28-stills-4.md).
+    frame = drawn_still(ball=(1200, 500), ball_bgr=(40, 210, 230))
+    cv2.circle(frame, (700, 700), 20, (81, 175, 67), -1, cv2.LINE_AA)  # the felt's (60, 130, 50) in 1.35x the light
+    scale = still_ball.WORK_WIDTH / 1920
+    small = cv2.resize(frame, (still_ball.WORK_WIDTH, round(1080 * scale)), interpolation=cv2.INTER_AREA)
+    lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab)
+    field, region = StillBallFinder()._felt(lab, scale)
+    r = field.ball_radius_px * scale
+    lighter, around = still_ball._lighter_than_felt(small, lab, r)
+    team = still_ball._team_colours(lab, region, field.felt_lab, r)
+    tinted = still_ball._tinted(lab, around, lighter, team)
+    lit, ball = ((round(y * scale), round(x * scale)) for x, y in ((700, 700), (1200, 500)))
+    assert lighter[lit] > 20 and tinted[lit] < 10, (lighter[lit], tinted[lit])
+    assert tinted[ball] > 60, tinted[ball]
+
+
 def test_a_team_in_one_colour_is_not_the_ball():
     # Twelve lit heads of the ball's size in a team's yellow, and a white ball: the heads answer the disc filter as
     # well as the ball does, but their colour covers a dozen balls' areas of the field.

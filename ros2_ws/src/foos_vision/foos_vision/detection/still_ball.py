@@ -29,12 +29,13 @@ light's disc filter sees as an arc, not a disc. A second cue, its tint, sees the
 chroma lies from what white light makes of the felt around it (the segment from the felt's chroma to grey's, on which
 the felt's painted lines, the rods' sheen and white socks all lie, however light), where the pixel is lighter than the
 felt and not in a team's colour. No ball colour is named: any ball but a white or grey one lies off that segment, and
-a white one is lit enough for the light cue. The tint's candidates are found and scored as the light's are (on the
-felt found only: past it lie the walls, whose colour is a tint of its own).
+a white one is lit enough for the light cue. Past the felt, away from grey, the segment reaches as far as the pixel is
+lighter than the felt: a lamp's stronger light on a coloured cloth raises its chroma too. The tint's candidates are
+found and scored as the light's are (on the felt found only: past it lie the walls, whose colour is a tint of its own).
 The best light candidate is the ball when its score reaches MIN_SCORE and it leads every other light candidate more
 than a ball's width away by MIN_LEAD: two things in a frame that look as much like a ball as each other make the pick a
 guess, and a wrong ball costs more than none (the frame then has no ball to report). Only when the light has no clear
-ball may a tint candidate be it, leading every candidate of both cues by MIN_LEAD.
+ball may a tint candidate be it, leading every candidate of both cues by MIN_LEAD and reaching MIN_TINT_SCORE.
 
 StillBallFinder.find(bgr) returns the field it found (a convex outline and the ball's radius in pixels there) and
 the ball candidates, best first; ball(bgr) the one it would report. The real-footage bench (real_bench) scores it
@@ -241,8 +242,12 @@ def _tinted(lab: np.ndarray, around: np.ndarray, lighter: np.ndarray, team: np.n
     a, b = lab[..., 1].astype(np.float32), lab[..., 2].astype(np.float32)
     felt_a, felt_b = around[..., 1], around[..., 2]
     to_grey_a, to_grey_b = 128.0 - felt_a, 128.0 - felt_b
+    # A lamp lights the felt unevenly, and more light on a coloured cloth raises its chroma with its lightness (a lit
+    # stripe of a saturated green felt is a stronger green, not a tint): past the felt, away from grey, the segment
+    # reaches the felt's chroma scaled by the pixel's light over the felt's around it.
+    brighter = np.maximum(lab[..., 0].astype(np.float32) / np.maximum(around[..., 0], 1.0) - 1.0, 0.0)
     along = np.clip(((a - felt_a) * to_grey_a + (b - felt_b) * to_grey_b)
-                    / (to_grey_a ** 2 + to_grey_b ** 2 + 1e-6), 0.0, 1.0)
+                    / (to_grey_a ** 2 + to_grey_b ** 2 + 1e-6), -brighter, 1.0)
     off_axis = np.hypot(a - felt_a - along * to_grey_a, b - felt_b - along * to_grey_b)
     tint = TINT_GAIN * off_axis * np.clip(lighter / MIN_PEAK, 0.0, 1.0)
     tint[team[lab[..., 1], lab[..., 2]] >= TEAM_BALLS] = 0.0
