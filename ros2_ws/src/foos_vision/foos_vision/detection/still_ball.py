@@ -29,12 +29,13 @@ light's disc filter sees as an arc, not a disc. A second cue, its tint, sees the
 chroma lies from what white light makes of the felt around it (the segment from the felt's chroma to grey's, on which
 the felt's painted lines, the rods' sheen and white socks all lie, however light), where the pixel is lighter than the
 felt and not in a team's colour. No ball colour is named: any ball but a white or grey one lies off that segment, and
-a white one is lit enough for the light cue. The tint's candidates are found and scored as the light's are (on the
-felt found only: past it lie the walls, whose colour is a tint of its own).
+a white one is lit enough for the light cue. Past the felt, away from grey, the segment reaches as far as the pixel is
+lighter than the felt: a lamp's stronger light on a coloured cloth raises its chroma too. The tint's candidates are
+found and scored as the light's are (on the felt found only: past it lie the walls, whose colour is a tint of its own).
 The best light candidate is the ball when its score reaches MIN_SCORE and it leads every other light candidate more
 than a ball's width away by MIN_LEAD: two things in a frame that look as much like a ball as each other make the pick a
 guess, and a wrong ball costs more than none (the frame then has no ball to report). Only when the light has no clear
-ball may a tint candidate be it, leading every candidate of both cues by MIN_LEAD.
+ball may a tint candidate be it, leading every candidate of both cues by MIN_LEAD and reaching MIN_TINT_SCORE.
 
 StillBallFinder.find(bgr) returns the field it found (a convex outline and the ball's radius in pixels there) and
 the ball candidates, best first; ball(bgr) the one it would report. The real-footage bench (real_bench) scores it
@@ -52,7 +53,7 @@ import numpy as np
 
 from foos_core.table_geometry import TableGeometry
 
-WORK_WIDTH = 960  # px: frames are searched at this width (a 1080p ball of 16-40 px keeps 8-20 px)
+WORK_WIDTH = 1280  # px: frames are searched at this width (a 1080p ball of 16-40 px keeps 11-27 px)
 FELT_CHROMA_TOL = 6.0  # Lab a/b levels around the felt's mode that are still felt
 FELT_LIGHT_TOL = 45.0  # L levels: the felt's light falls off toward the walls
 MIN_FELT_FILL = 0.5  # of the felt's closed stretch that is felt-coloured
@@ -78,6 +79,7 @@ ROD_TURN = 10.0  # degrees from the rods' common direction: perspective turns pa
 ROD_ANGLE_STEP = 0.5  # degrees: the Hough transform's angle resolution (at most 4 px off over a 500 px rod)
 TINT_GAIN = 3.0  # light levels per chroma level: the felt's light varies about 3x as much as its chroma (15-24 vs 7-8)
 MIN_SCORE = 0.6  # below this the best candidate is not reported: nothing in the frame is clearly a ball
+MIN_TINT_SCORE = 0.7  # the same for a candidate found by its tint: more things on a table are tinted than lit
 MIN_LEAD = 0.1  # the best's score over the next best's more than a ball's width away: less, and the pick is a guess
 
 
@@ -240,8 +242,12 @@ def _tinted(lab: np.ndarray, around: np.ndarray, lighter: np.ndarray, team: np.n
     a, b = lab[..., 1].astype(np.float32), lab[..., 2].astype(np.float32)
     felt_a, felt_b = around[..., 1], around[..., 2]
     to_grey_a, to_grey_b = 128.0 - felt_a, 128.0 - felt_b
+    # A lamp lights the felt unevenly, and more light on a coloured cloth raises its chroma with its lightness (a lit
+    # stripe of a saturated green felt is a stronger green, not a tint): past the felt, away from grey, the segment
+    # reaches the felt's chroma scaled by the pixel's light over the felt's around it.
+    brighter = np.maximum(lab[..., 0].astype(np.float32) / np.maximum(around[..., 0], 1.0) - 1.0, 0.0)
     along = np.clip(((a - felt_a) * to_grey_a + (b - felt_b) * to_grey_b)
-                    / (to_grey_a ** 2 + to_grey_b ** 2 + 1e-6), 0.0, 1.0)
+                    / (to_grey_a ** 2 + to_grey_b ** 2 + 1e-6), -brighter, 1.0)
     off_axis = np.hypot(a - felt_a - along * to_grey_a, b - felt_b - along * to_grey_b)
     tint = TINT_GAIN * off_axis * np.clip(lighter / MIN_PEAK, 0.0, 1.0)
     tint[team[lab[..., 1], lab[..., 2]] >= TEAM_BALLS] = 0.0
@@ -396,9 +402,10 @@ def _pick(candidates: list[StillCandidate], field: Optional[FeltField]) -> Optio
     """The ball, or None. The light comes first: its best candidate is the ball when its score reaches MIN_SCORE
     and it leads every other light candidate more than a ball's width away by MIN_LEAD. Only where the light has no
     clear ball (a ball in a figure's shade shows a thin lit cap) may a tint candidate be the ball, and it must then
-    lead every candidate of both cues by MIN_LEAD: a tint is a weaker sign than light, and many things are tinted."""
+    lead every candidate of both cues by MIN_LEAD and reach MIN_TINT_SCORE: a tint is a weaker sign than light, and
+    many things are tinted (an end wall's lit beige, a figure whose paint a lamp saturates past its team's colour)."""
     def leader(pool: list[StillCandidate]) -> Optional[StillCandidate]:
-        if not pool or pool[0].score < MIN_SCORE:
+        if not pool or pool[0].score < (MIN_SCORE if pool[0].cue == "light" else MIN_TINT_SCORE):
             return None
         return pool[0] if pool[0].score - _rival_score(pool[0], pool, field) >= MIN_LEAD else None
 
