@@ -6,7 +6,7 @@ import pytest
 
 from foos_core.table_params import ROBOT_PARAMS_FILE, load_params
 from foos_policy.env import FoosballEnv
-from foos_policy.observation import OBS_SCALED_BOUND, observes_scaled, scaled_observation
+from foos_policy.observation import OBS_SCALE, OBS_SCALED_BOUND, observes_scaled, scaled_observation
 from foos_policy.train import ScaledObservation
 
 
@@ -17,7 +17,8 @@ def test_the_scaled_view_brings_a_spinning_rod_to_the_size_of_a_ball_position():
         obs, *_ = env.step(np.tile([0.0, 20.0], 4).astype(np.float32))
     assert np.abs(obs).max() > 50.0
     view = scaled_observation(obs)
-    assert np.abs(view).max() <= OBS_SCALED_BOUND
+    spins = np.abs(view[7::4])  # each rod's rotation velocity
+    assert 0.5 < spins.max() < OBS_SCALED_BOUND  # of order 1, not clipped
     assert np.abs(view[:2]).max() < 1.0  # ball positions stay below 1 after scaling (0.6 m scale)
     assert scaled_observation(np.full(36, 1e6)).max() == OBS_SCALED_BOUND
 
@@ -32,7 +33,7 @@ def test_a_models_observation_box_names_its_view():
 
 
 def test_a_model_trained_on_the_scaled_view_is_fed_it_and_the_env_keeps_the_raw_one(tmp_path):
-    from foos_policy.policies import algorithm_class, make_policy
+    from foos_policy.policies import PolicyError, algorithm_class, make_policy
 
     env = FoosballEnv(reset="hardened", opponent="scripted", params_file=str(ROBOT_PARAMS_FILE), action="residual")
     wrapped = ScaledObservation(env)
@@ -40,6 +41,10 @@ def test_a_model_trained_on_the_scaled_view_is_fed_it_and_the_env_keeps_the_raw_
     assert np.array_equal(view, scaled_observation(env._home_obs))  # the env's own observation stays raw
     SAC, _ = algorithm_class("sbx", "sac")
     model = SAC("MlpPolicy", wrapped, seed=0, learning_starts=10, policy_kwargs=dict(net_arch=[8]))
+    model.save(tmp_path / "unrecorded.zip")  # the scales not saved with it: refused, as any other scales would be
+    with pytest.raises(PolicyError, match="scaled observation with scales None"):
+        make_policy(str(tmp_path / "unrecorded.zip"), load_params(ROBOT_PARAMS_FILE), env.sim.command_limits)
+    model.observation_scale = OBS_SCALE.tolist()  # as train saves it
     model.save(tmp_path / "scaled.zip")
     policy = make_policy(str(tmp_path / "scaled.zip"), load_params(ROBOT_PARAMS_FILE), env.sim.command_limits)
     assert policy.observes_scaled and policy.action_mode == "residual"

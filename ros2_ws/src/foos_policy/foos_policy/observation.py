@@ -70,10 +70,12 @@ def observe(team: str, ball_position, ball_velocity, joint_positions, joint_velo
 
 # A learner's view of the observation: each quantity divided by a typical size, so that no input dominates a
 # small network's first layer. Raw, the rods' angular velocities reach 314 rad/s on the robot drives (and 40 on the
-# former servos) beside ball positions of 0.6 m: SAC's actor on raw observations sat at 0.7 of its bounds whatever
-# the state (docs/measurements/policy-2026-11-28-residual.md). Clipped at +-OBS_SCALED_BOUND, so a model's
-# observation box tells scaled (finite bounds) from raw (unbounded) observations, as its action box tells the
-# action mode.
+# former servos) beside ball positions of 0.6 m. Tried because SAC's actor on the raw view emitted corrections at
+# 0.7 of their bounds (pre-tanh means of about 1 in median, a fifth above 2): with the scaled view it still does
+# (docs/measurements/policy-2026-11-28-scaled.md), so the inputs' sizes were not what kept it from learning.
+# Clipped at +-OBS_SCALED_BOUND, so a model's observation box tells scaled (finite bounds) from raw (unbounded)
+# observations, as its action box tells the action mode; the scales themselves are saved with the model
+# (`observation_scale`) and checked when it is loaded.
 BALL_POSITION_SCALE = 0.6    # m, half the field's length
 BALL_SPEED_SCALE = 5.0       # m/s, a firm pass
 SLIDE_SCALE = 0.1            # m, about a rod's travel each way

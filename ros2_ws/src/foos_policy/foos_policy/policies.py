@@ -14,7 +14,7 @@ from foos_core.table_params import load_params
 from foos_sim import command_limits as params_command_limits
 
 from .actions import action_map, action_mode_of
-from .observation import ACTION_LIMIT, observes_scaled, scaled_observation
+from .observation import ACTION_LIMIT, OBS_SCALE, observes_scaled, scaled_observation
 from .scripted import ScriptedPolicy
 
 BASELINES = ("zero", "random", "scripted")
@@ -149,6 +149,10 @@ class ModelPolicy(Policy):
             self.observes_scaled = observes_scaled(self.model.observation_space)
         except ValueError as exc:
             raise PolicyError(f"{self.path}: {exc}") from None
+        saved_scale = getattr(self.model, "observation_scale", None)
+        if self.observes_scaled and (saved_scale is None or not np.allclose(saved_scale, OBS_SCALE)):
+            raise PolicyError(f"{self.path}: trained on a scaled observation with scales {saved_scale}, not this version's "
+                              f"foos_policy.observation.OBS_SCALE")
         self.action_map = action_map(self.action_mode, *_table(params, command_limits))
 
     def predict(self, obs):

@@ -18,7 +18,7 @@ from .commands import add_task_arguments, check_task_arguments, run_command, wri
 from .curriculum import stage_at, stages
 from .env import make_env
 from .metrics import MetricsWriter, plot_metrics, summarize_tail
-from .observation import OBS_SCALED_BOUND, OBS_SIZE, scaled_observation
+from .observation import OBS_SCALE, OBS_SCALED_BOUND, OBS_SIZE, scaled_observation
 from .policies import algorithm_class
 from .tasks import REWARDS, make_reward
 
@@ -249,6 +249,8 @@ def train(args) -> dict:
     env = DummyVecEnv([env_factory(i) for i in range(args.n_envs)])
     env.seed(args.seed)
     model = build_model(args, env, out / "tb")
+    if args.observation == "scaled":  # saved with the model: ModelPolicy refuses a model scaled otherwise than today
+        model.observation_scale = OBS_SCALE.tolist()
     metrics = MetricsWriter(out / "metrics.csv")
     callbacks = make_callbacks(metrics, args.steps, not args.no_progress, out / "checkpoints", args.checkpoint_every, name, args.n_envs,
                                args.time_limit * 60.0, curriculum)
