@@ -152,14 +152,20 @@ LOO_MIN_GAIN = 10.0  # noise variances the other rolls' dent must explain of the
 FRAME_SPLIT_EVIDENCE = 60.0  # noise variances a dent judged on alternate frames must earn: twice the usual bar
 
 
-def _crossing(segments: list[Segment], dent: np.ndarray) -> list[Segment]:
-    """The segments that pass within a search reach of the dent (x, y, radius, ...)."""
+def _crossing_rows(segments: list[Segment], dent: np.ndarray) -> np.ndarray:
+    """The indices of the segments that pass within a search reach of the dent (x, y, radius, ...)."""
     centre, radius = dent[5:7], dent[7]
-    return [s for s in segments
-            if np.min(np.hypot(s.xy[:, 0] - centre[0], s.xy[:, 1] - centre[1])) < radius + DENT_REACH]
+    return np.array([i for i, s in enumerate(segments)
+                     if np.min(np.hypot(s.xy[:, 0] - centre[0], s.xy[:, 1] - centre[1])) < radius + DENT_REACH], dtype=int)
 
 
-def dent_held_out_drops(segments: list[Segment], without: np.ndarray, with_dent: np.ndarray, scale2: float) -> list[float]:
+def _crossing(segments: list[Segment], dent: np.ndarray) -> list[Segment]:
+    """The segments that pass within a search reach of the dent."""
+    return [segments[i] for i in _crossing_rows(segments, dent)]
+
+
+def dent_held_out_drops(segments: list[Segment], without: np.ndarray, with_dent: np.ndarray, scale2: float,
+                        states_without: np.ndarray | None = None, states_with: np.ndarray | None = None) -> list[float]:
     """Held-out evidence for a new dent, judged only on the rolls that cross it (leave one roll out).
 
     Only the few rolls that pass over a dent carry any evidence of it, and two folds of all rolls
@@ -167,22 +173,35 @@ def dent_held_out_drops(segments: list[Segment], without: np.ndarray, with_dent:
     is predicted by a dent found without it: a matched-filter search near the all-data dent on the
     other crossing rolls. A roll the others cannot vouch for earns nothing. Returns each crossing
     roll's drop in squared error, in units of scale2.
-    """
-    crossing = _crossing(segments, with_dent)
+
+    states_without and states_with, where given, are the all-data fits' states of `segments` (one row each) under
+    `without` and `with_dent`: each state fit starts from its segments' rows, as HeldOut.score's do (from each
+    segment's quadratic guess, the fits of the other rolls, n - 1 of n each time, stop at their evaluation limit)."""
+    rows = _crossing_rows(segments, with_dent)
+    crossing = [segments[i] for i in rows]
+
+    def start(states: np.ndarray | None, picks: list[int]) -> np.ndarray | None:
+        return None if states is None else states[picks]
+
     drops = []
     for i, roll in enumerate(crossing):
         others = crossing[:i] + crossing[i + 1:]
-        alone = SegmentBatch([roll])
-        without_rss = fit_states(alone, without).rss
+        other_rows = [int(r) for r in np.delete(rows, i)]
+        if not others:
+            drops.append(0.0)
+            continue
+        batch = SegmentBatch(others)
+        dent, gain = dent_search(batch, fit_states(batch, without, start(states_without, other_rows)), around=with_dent[5:8])
+        # Only a dent the other rolls clearly show (not one at the depth limit, which is what
+        # rolls with nothing to say about it give) is put to the test; a roll with none to test earns nothing.
+        if gain / scale2 < LOO_MIN_GAIN or abs(dent[3]) >= MAX_DENT_DEPTH:
+            drops.append(0.0)
+            continue
         theta = without.copy()
-        if others:
-            batch = SegmentBatch(others)
-            dent, gain = dent_search(batch, fit_states(batch, without), around=with_dent[5:8])
-            # Only a dent the other rolls clearly show (not one at the depth limit, which is what
-            # rolls with nothing to say about it give) is put to the test.
-            if gain / scale2 >= LOO_MIN_GAIN and abs(dent[3]) < MAX_DENT_DEPTH:
-                theta[5:9] = dent
-        drops.append((without_rss - fit_states(alone, theta).rss) / scale2)
+        theta[5:9] = dent
+        alone = SegmentBatch([roll])
+        without_rss = fit_states(alone, without, start(states_without, [rows[i]])).rss
+        drops.append((without_rss - fit_states(alone, theta, start(states_with, [rows[i]])).rss) / scale2)
     return drops
 
 
@@ -269,7 +288,8 @@ def select_effects(segments: list[Segment], noise: float, theta0: np.ndarray, ge
                     "residual_scatter_over_noise": round(float(np.sqrt(candidate.rss / dof / sigma2)), 2),
                     "variance_unit_over_noise": round(float(np.sqrt(scale2 / sigma2)), 2)}
             if new_dent:
-                fold_drops = dent_held_out_drops(segments, current.theta, candidate.theta, scale2)
+                fold_drops = dent_held_out_drops(segments, current.theta, candidate.theta, scale2, current.states,
+                                                 candidate.states)
                 info["per_roll_over_the_dent"] = [round(float(d), 1) for d in fold_drops]
                 consistent = _consistent(fold_drops)
                 supported = sum(d > 0 for d in fold_drops) >= 2 and consistent and sum(fold_drops) >= MIN_EVIDENCE
