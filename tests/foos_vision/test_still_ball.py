@@ -213,11 +213,8 @@ def test_a_tint_pick_needs_a_higher_floor_than_a_light_one():
     assert still_ball._pick([clear, faint], field) is clear
 
 
-def test_white_light_has_no_tint():
-    # The felt's painted lines, a lamp's sheen and white socks mix the felt's colour with grey: no tint, however light.
-    # A ball's colour lies off that line. The drawn still has white lines on green felt; a yellow disc is added.
-    frame = drawn_still(ball=(1200, 500), ball_bgr=(40, 210, 230))
-    cv2.circle(frame, (700, 700), 20, (150, 190, 145), -1, cv2.LINE_AA)  # a half-white, half-felt blur of a sock
+def _lightness_and_tint(frame):
+    """A 1080p still's work scale, and how much lighter than the felt and how tinted each work pixel is."""
     scale = still_ball.WORK_WIDTH / 1920
     small = cv2.resize(frame, (still_ball.WORK_WIDTH, round(1080 * scale)), interpolation=cv2.INTER_AREA)
     lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab)
@@ -225,7 +222,15 @@ def test_white_light_has_no_tint():
     r = field.ball_radius_px * scale
     lighter, around = still_ball._lighter_than_felt(small, lab, r)
     team = still_ball._team_colours(lab, region, field.felt_lab, r)
-    tinted = still_ball._tinted(lab, around, lighter, team)
+    return scale, lighter, still_ball._tinted(lab, around, lighter, team)
+
+
+def test_white_light_has_no_tint():
+    # The felt's painted lines, a lamp's sheen and white socks mix the felt's colour with grey: no tint, however light.
+    # A ball's colour lies off that line. The drawn still has white lines on green felt; a yellow disc is added.
+    frame = drawn_still(ball=(1200, 500), ball_bgr=(40, 210, 230))
+    cv2.circle(frame, (700, 700), 20, (150, 190, 145), -1, cv2.LINE_AA)  # a half-white, half-felt blur of a sock
+    scale, lighter, tinted = _lightness_and_tint(frame)
     line, sock, ball = ((round(y * scale), round(x * scale)) for x, y in ((960, 800), (700, 700), (1200, 500)))
     assert lighter[line] > 50 and tinted[line] < 10, (lighter[line], tinted[line])  # the centre line
     assert lighter[sock] > 20 and tinted[sock] < 10, (lighter[sock], tinted[sock])  # the sock's blur
@@ -239,14 +244,7 @@ def test_lit_felt_has_no_tint():
     # (vision-2026-11-28-stills-4.md).
     frame = drawn_still(ball=(1200, 500), ball_bgr=(40, 210, 230))
     cv2.circle(frame, (700, 700), 20, (81, 175, 67), -1, cv2.LINE_AA)  # the felt's (60, 130, 50) in 1.35x the light
-    scale = still_ball.WORK_WIDTH / 1920
-    small = cv2.resize(frame, (still_ball.WORK_WIDTH, round(1080 * scale)), interpolation=cv2.INTER_AREA)
-    lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab)
-    field, region = StillBallFinder()._felt(lab, scale)
-    r = field.ball_radius_px * scale
-    lighter, around = still_ball._lighter_than_felt(small, lab, r)
-    team = still_ball._team_colours(lab, region, field.felt_lab, r)
-    tinted = still_ball._tinted(lab, around, lighter, team)
+    scale, lighter, tinted = _lightness_and_tint(frame)
     lit, ball = ((round(y * scale), round(x * scale)) for x, y in ((700, 700), (1200, 500)))
     assert lighter[lit] > 20 and tinted[lit] < 10, (lighter[lit], tinted[lit])
     assert tinted[ball] > 60, tinted[ball]
