@@ -1,4 +1,4 @@
-"""The jerk-limited drives (the default): the S-curve itself, the drives following it on both physics, the
+"""The jerk-limited drives (the robot table's; not yet the default): the S-curve itself, the drives following it on both physics, the
 contract's drive effects on them, and the former velocity servos still selectable."""
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from foos_core.table_params import (
 )
 from foos_sim import scurve
 from foos_sim.drive_limits import DriveLimits, Servo, predict_positions
-from foos_sim.drive_profiles import profile_limits
+from foos_sim.drive_profiles import BLOCK, ProfileDrives, profile_limits
 from foos_sim.simulation import TableSimulation
 
 ATTACK_SLIDE, ATTACK_ROTATE = JOINT_NAMES.index("home_attack_slide"), JOINT_NAMES.index("home_attack_rotate")
@@ -198,3 +198,34 @@ def test_the_predictor_applies_a_command_the_moment_it_falls_due_within_a_step()
             else:
                 exact = d1 + scurve.evaluate(second, end - command_t[2])[2]
             assert predicted[i, h, 0] == pytest.approx(float(exact), abs=1e-6), (start, horizon)
+
+
+def test_the_setpoint_blocks_are_the_s_curve_sampled_at_each_steps_middle():
+    # The fast physics reads its servo targets from blocks evaluated a chunk of rows at a time and dropped on a re-plan
+    # (ProfileDrives.targets): over several blocks, with commands changing mid-block, every target must be the plan's
+    # velocity at the step's middle, computed afresh.
+    limits = profile_limits(load_params(ROBOT_PARAMS_FILE))
+    drives = ProfileDrives(limits, None)
+    rng = np.random.default_rng(4)
+    h, period = 0.002, 7  # a command every 7 steps: re-plans fall inside blocks and chunks
+    for step in range(3 * BLOCK):
+        time = step * h
+        if step % period == 0:
+            for team in range(2):
+                drives.receive(time, team, rng.uniform(-1.0, 1.0, COMMAND_SIZE) * limits.speed[:COMMAND_SIZE])
+        targets = drives.targets(time, h)
+        if targets is None:  # settled and handed out already
+            continue
+        expected, _, _ = scurve.evaluate(drives.plan, time + 0.5 * h - drives.plan_time)
+        np.testing.assert_allclose(targets, expected, rtol=1e-12, atol=1e-9)
+
+
+def test_one_lanes_velocity_and_state_match_the_closed_form():
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        v0, a0, target = rng.uniform(-300, 300), rng.uniform(-4000, 4000), rng.uniform(-314, 314)
+        profile = scurve.plan(np.float64(v0), np.float64(a0), np.float64(target), 9425.0, 36650.0)
+        for elapsed in (0.0, 0.003, 0.05, 0.5):
+            v, a, _ = scurve.evaluate(profile, elapsed)
+            v_state, a_state = scurve.state(profile, elapsed)
+            np.testing.assert_allclose([scurve.velocity(profile, elapsed), v_state, a_state], [v, v, a], rtol=1e-12, atol=1e-9)
