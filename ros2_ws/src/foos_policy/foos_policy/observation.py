@@ -90,7 +90,7 @@ assert OBS_SCALE.shape == (OBS_SIZE,)
 
 def scaled_observation(obs) -> np.ndarray:
     """The learner's view of a 36-D observation (or a batch of them): sizes of about 1, clipped."""
-    return np.clip(np.asarray(obs, np.float32) / OBS_SCALE, -OBS_SCALED_BOUND, OBS_SCALED_BOUND).astype(np.float32)
+    return np.clip(np.asarray(obs, np.float32) / OBS_SCALE, -OBS_SCALED_BOUND, OBS_SCALED_BOUND)  # float32 throughout
 
 
 def observes_scaled(observation_space) -> bool:
