@@ -22,6 +22,8 @@ from .observation import OBS_SCALE, OBS_SCALED_BOUND, OBS_SIZE, scaled_observati
 from .policies import algorithm_class
 from .tasks import REWARDS, make_reward
 
+ZERO_START_STD = 0.2  # --actor-start zero: the spread before the tanh (a correction's first draws within about a fifth of its bound)
+
 DESCRIPTION = """\
 Train SAC or TQC for the home team on the foosball twin: SBX (JAX) by default, or stable-baselines3 /
 sb3-contrib (torch, the paper's) with --learner sb3.
@@ -106,6 +108,15 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--ent-coef", type=_entropy_coefficient, default="auto", metavar="auto|C",
                    help="SAC/TQC's entropy coefficient: auto (tuned to a target entropy, the default) or a fixed C >= 0 "
                         "(on corrections, --action residual, 0.001 left the actions at 0.7 of their bounds as auto did)")
+    p.add_argument("--gamma", type=float, default=0.99,
+                   help="the critic's discount per 20 ms control step: 0.99 looks about 2 s ahead, 0.95 about 0.4 s, "
+                        "the outcome of the next touch rather than of the rally (default 0.99)")
+    p.add_argument("--actor-start", choices=("default", "zero"), default="default",
+                   help="default: the learner's own initialisation (a random mean, a spread of about 1 before the tanh); "
+                        "zero: the actor's mean output starts at zero for every observation, with a spread of "
+                        f"{ZERO_START_STD} before the tanh, so with --action residual the first episodes play the scripted "
+                        "controller's own game, not a random one; give --learning-starts 0 as well, or the first steps are "
+                        "uniform random actions (default default)")
     p.add_argument("--threads", type=int, default=1, help="torch (sb3) or XLA (sbx) threads (default 1: the CPU is shared)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     args = p.parse_args(argv)
@@ -115,6 +126,8 @@ def parse_args(argv=None) -> argparse.Namespace:
         p.error(f"--action-cost must be at least 0, got {args.action_cost}")
     if args.n_envs <= 0 or args.train_freq <= 0 or args.gradient_steps <= 0:
         p.error("--n-envs, --train-freq and --gradient-steps must be positive")
+    if not 0 < args.gamma <= 1:
+        p.error(f"--gamma must be in (0, 1], got {args.gamma}")
     check_task_arguments(p, args)
     try:  # the reward's own check, before any env is made
         make_reward(args.reward, args.own_goal_penalty, args.spin_penalty)
@@ -157,7 +170,7 @@ def build_model(args, env, tb_dir: Path):
         policy="MlpPolicy", env=env, seed=args.seed, verbose=0,
         learning_starts=args.learning_starts, buffer_size=args.buffer_size, batch_size=256,
         train_freq=args.train_freq, gradient_steps=args.gradient_steps,
-        tensorboard_log=str(tb_dir), policy_kwargs=dict(net_arch=list(args.net)), ent_coef=args.ent_coef,
+        tensorboard_log=str(tb_dir), policy_kwargs=dict(net_arch=list(args.net)), ent_coef=args.ent_coef, gamma=args.gamma,
     )
     if args.learner == "sbx" and args.threads == 1:  # read by XLA when JAX loads: one thread, so two runs share the cores
         os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1")
@@ -167,7 +180,37 @@ def build_model(args, env, tb_dir: Path):
 
         torch.set_num_threads(args.threads)
         kwargs["device"] = device
-    return Algo(**kwargs)
+    model = Algo(**kwargs)
+    if args.actor_start == "zero":
+        start_actor_at_zero(model, args.learner)
+    return model
+
+
+def start_actor_at_zero(model, learner: str, std: float = None) -> None:
+    """Zero the weights of the actor's mean head, so the mean is 0 (the action box's centre) for every
+    observation, and set its spread head to a constant log std. Why: on corrections (--action residual) the learner
+    otherwise starts from a random mean and random first steps, far from the scripted play it is meant to correct;
+    last session's actors sat at 0.7 of their bounds from the start (docs/measurements/policy-2026-11-28-scaled.md)."""
+    log_std = float(np.log(ZERO_START_STD if std is None else std))
+    if learner == "sb3":
+        import torch  # loaded already by algorithm_class
+
+        with torch.no_grad():
+            model.actor.mu.weight.zero_()
+            model.actor.mu.bias.zero_()
+            model.actor.log_std.weight.zero_()
+            model.actor.log_std.bias.fill_(log_std)
+        return
+    # SBX's actor (flax): its last two Dense layers are the mean head, then the log-std head
+    state = model.policy.actor_state
+    params = state.params["params"]
+    dense = sorted((k for k in params if k.startswith("Dense_")), key=lambda k: int(k.split("_")[1]))
+    mean_head, std_head = dense[-2], dense[-1]
+    new = dict(params)
+    new[mean_head] = {k: np.zeros_like(v) for k, v in params[mean_head].items()}
+    new[std_head] = {"kernel": np.zeros_like(params[std_head]["kernel"]),
+                     "bias": np.full_like(params[std_head]["bias"], log_std)}
+    model.policy.actor_state = state.replace(params={**state.params, "params": new})
 
 
 def make_callbacks(metrics, total: int, progress: bool, checkpoint_dir: Path, checkpoint_every: int, name: str, n_envs: int,
@@ -278,7 +321,7 @@ def train(args) -> dict:
         "spin_penalty": args.spin_penalty, "curriculum": args.curriculum,
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
         "params_file": args.params_file, "action": args.action, "observation": args.observation,
-        "ent_coef": args.ent_coef, "action_cost": args.action_cost,
+        "ent_coef": args.ent_coef, "action_cost": args.action_cost, "gamma": args.gamma, "actor_start": args.actor_start,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
         "command": "train " + " ".join(sys.argv[1:]) if sys.argv else "",
