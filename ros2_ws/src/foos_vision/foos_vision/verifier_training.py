@@ -1,6 +1,6 @@
 """Train the still finder's ball verifier (detection.ball_verifier) on the simulated camera's renders, and only them.
 
-    ./scripts/train_ball_verifier      # 50 scenes x 5 frames, seed 0: 10-15 minutes on 2 shared cores; the shipped weights
+    ./scripts/train_ball_verifier      # the shipped weights: 50 scenes x 5 frames, seed 0, about 18 minutes on 2 cores
     ./scripts/train_ball_verifier --scenes 8 --out /tmp/v.npz   # a quick try
 
 The data: SCENES scenes of foos_sim's camera (foos_sim.camera.render), each drawn with the seed: the overhead or the
@@ -279,7 +279,7 @@ def augment(raw: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 
 def train(data: dict[str, np.ndarray], epochs: int, seed: int, quiet=False):
     import torch  # here: torch is for training only; the verifier runs in numpy
-    from torch import nn
+    from torch import nn  # the same: training only
 
     torch.manual_seed(seed)
     torch.set_num_threads(1)

@@ -37,6 +37,10 @@ than a ball's width away by MIN_LEAD: two things in a frame that look as much li
 guess, and a wrong ball costs more than none (the frame then has no ball to report). Only when the light has no clear
 ball may a tint candidate be it, leading every candidate of both cues by MIN_LEAD and reaching MIN_TINT_SCORE.
 
+A learned check may join the rules (StillBallFinder(verifier=...), detection.ball_verifier: a small net trained on the
+simulated camera's renders that scores the patch around each candidate); it is off by default, because on real frames
+it lost more balls than it found (docs/measurements/vision-2026-11-28-verifier-5.md).
+
 StillBallFinder.find(bgr) returns the field it found (a convex outline and the ball's radius in pixels there) and
 the ball candidates, best first; ball(bgr) the one it would report. The real-footage bench (real_bench) scores it
 on single frames with labels; the tracker does not use it (a video has motion and the tags' mapping, see
