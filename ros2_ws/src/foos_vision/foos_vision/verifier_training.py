@@ -25,6 +25,7 @@ import argparse
 import math
 import sys
 import time
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import cv2
@@ -60,11 +61,30 @@ RANDOM_NEGATIVES = 12  # random points of the field per frame
 HIDDEN = 32  # units of the hidden layer
 
 
+def with_round_heads(mjcf: str, radius: float) -> str:
+    """The table's MJCF with a sphere of the given radius on top of each figure's body, in its team's material: real
+    figures have a round head about the ball's size, which an overhead camera sees as a lit disc (the simulated
+    figures are boxes). Only for rendering: the spheres are massless to the eye and collide with nothing."""
+    root = ET.fromstring(mjcf)
+    for body in root.iter("body"):
+        for geom in list(body.findall("geom")):
+            name = geom.get("name", "")
+            if "_figure" not in name or not name.endswith("_body"):
+                continue
+            x, y, z = (float(v) for v in geom.get("pos").split())
+            top = z + float(geom.get("size").split()[2])
+            head = ET.SubElement(body, "geom", name=name[:-5] + "_head", type="sphere", size=f"{radius:.4f}",
+                                 pos=f"{x:.5f} {y:.5f} {top - 0.4 * radius:.5f}", material=geom.get("material"),
+                                 contype="0", conaffinity="0", mass="0.0001")
+            head.tail = geom.tail
+    return ET.tostring(root, encoding="unicode")
+
+
 def _jitter(rgb, rng, amount=0.05):
     return tuple(float(v) for v in np.clip(np.asarray(rgb) + rng.uniform(-amount, amount, 3), 0, 1))
 
 
-def make_scene(rng: np.random.Generator, params_file=None) -> tuple[SceneRenderer, str, list]:
+def make_scene(rng: np.random.Generator, params_file=None, round_heads: bool = False) -> tuple[SceneRenderer, str, list]:
     name = "overhead" if rng.random() < 0.7 else "oblique"
     camera = load_camera(name).with_(width=1280, height=720)
     table = TableGeometry.of(params_file)
@@ -86,7 +106,10 @@ def make_scene(rng: np.random.Generator, params_file=None) -> tuple[SceneRendere
                             lighting=float(rng.uniform(0.6, 1.5)), visibility=True, shadows=True,
                             seed=int(rng.integers(1 << 30)))
     felt_rgb = " ".join(f"{c:.3f}" for c in np.clip(np.asarray(FELTS[felt]) * rng.uniform(0.85, 1.15, 3), 0, 1))
-    renderer = SceneRenderer(build_mjcf(params_file).replace(SIM_FELT_RGB, felt_rgb), load_markers(), options)
+    mjcf = build_mjcf(params_file).replace(SIM_FELT_RGB, felt_rgb)
+    if round_heads and rng.random() < 0.7:  # only then: the shipped weights' run draws nothing here
+        mjcf = with_round_heads(mjcf, table.ball_radius * rng.uniform(0.9, 1.3))
+    renderer = SceneRenderer(mjcf, load_markers(), options)
     team_rgb = [_jitter(TEAMS[colour], rng) for colour in teams]
     for team, rgb in zip(("home", "away"), team_rgb):
         set_team_colour(renderer.model, team, rgb)
@@ -227,14 +250,15 @@ def frame_samples(image: np.ndarray, ball_uv, visible: float, finder: StillBallF
     return np.concatenate(patches), np.array(labels, np.float32)
 
 
-def generate(scenes: int, frames: int, seed: int, params_file=None, quiet=False) -> dict[str, np.ndarray]:
+def generate(scenes: int, frames: int, seed: int, params_file=None, quiet=False,
+             round_heads: bool = False) -> dict[str, np.ndarray]:
     rng = np.random.default_rng(seed)
     table = TableGeometry.of(params_file)
     finder = StillBallFinder(params_file)
     all_patches, all_labels, scene_of = [], [], []
     bar = tqdm(total=scenes * frames, desc="rendering", unit="frame", disable=quiet)
     for s in range(scenes):
-        renderer, what, team_rgb = make_scene(rng, params_file)
+        renderer, what, team_rgb = make_scene(rng, params_file, round_heads)
         bar.set_postfix_str(what)
         try:
             for _ in range(frames):
@@ -339,6 +363,8 @@ def main(argv=None) -> None:
     p.add_argument("--epochs", type=int, default=12, help="passes over the patches (default 12)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default=str(DEFAULT_WEIGHTS), help="the weights file (default: the one foos_vision ships)")
+    p.add_argument("--round-heads", action="store_true",
+                   help="give 70 %% of the scenes' figures round heads (spheres in the MJCF; see the verifier log)")
     p.add_argument("--data", help="keep the patches here (.npz) and reuse them when the file exists")
     args = p.parse_args(argv)
     if args.scenes < 2 or args.frames < 1 or args.epochs < 1:
@@ -350,7 +376,7 @@ def main(argv=None) -> None:
         with np.load(args.data) as stored:
             data = {k: stored[k] for k in stored.files}
     else:
-        data = generate(args.scenes, args.frames, args.seed)
+        data = generate(args.scenes, args.frames, args.seed, round_heads=args.round_heads)
         if args.data:
             np.savez_compressed(args.data, **data)
     print(f"{len(data['labels'])} patches, {int(data['labels'].sum())} of balls, from {args.scenes} scenes "
