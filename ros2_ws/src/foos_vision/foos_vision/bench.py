@@ -63,8 +63,10 @@ from foos_sim.camera.render import read_joints, read_truth
 
 from .camera.field_corners import field_reference
 from .camera.figure_mask import FigureGeometry, joint_track
+from .detection.ball_verifier import BallVerifier
 from .field_bench import run_field_auto
 from .real_bench import find_clips, run_cli_body, run_real
+from .still_renders import run_still_renders
 from .throughput import REPEATS, run_throughput
 from .tracking.backfill import OfflineTracker
 from .tracking.tracker import BallTracker, TrackerConfig, choose_colour
@@ -371,6 +373,11 @@ def main(argv=None) -> None:
     p.add_argument("--stills", action="store_true",
                    help="with --real: score every frame alone as a single still (the field found in it, no tags, "
                         "corners or time order), a video or a clip with markers too")
+    p.add_argument("--verifier", metavar="WEIGHTS", nargs="?", const="", default=None,
+                   help="with --stills or --still-renders: also pick with the ball verifier (a second row, same "
+                        "candidates); WEIGHTS: an .npz of its weights (default: the one foos_vision ships)")
+    p.add_argument("--still-renders", action="store_true",
+                   help="the still finder on 90 single renders of the simulated camera (foos_vision.still_renders)")
     p.add_argument("--field-auto", type=int, metavar="N",
                    help="--field-corners auto against the truth: N random render cases (foos_vision.field_bench), "
                         "from case --field-auto-from")
@@ -389,8 +396,17 @@ def main(argv=None) -> None:
         return
     if args.stills and not args.real:
         p.error("--stills goes with --real DIR")
+    if args.verifier is not None and not (args.stills or args.still_renders):
+        p.error("--verifier goes with --stills or --still-renders")
+
+    def verifier():
+        return None if args.verifier is None else BallVerifier(args.verifier or None)
+
+    if args.still_renders:
+        run_cli_body(lambda: run_still_renders(verifier()))
+        return
     if args.real:
-        run_cli_body(lambda: run_real(Path(args.real), args.params_file, as_stills=args.stills))
+        run_cli_body(lambda: run_real(Path(args.real), args.params_file, as_stills=args.stills, verifier=verifier()))
         return
     cases = list(SHOT_CASES if args.shots else CASES)
     if args.cases:

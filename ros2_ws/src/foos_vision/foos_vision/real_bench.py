@@ -40,7 +40,8 @@ import yaml
 from foos_core.table_geometry import TableGeometry
 
 from .camera.field_corners import field_reference
-from .detection.still_ball import StillBallFinder
+from .detection.ball_verifier import BallVerifier
+from .detection.still_ball import StillBallFinder, _pick, _verified_pick
 from .errors import VisionError
 from .tracking.backfill import OfflineTracker
 from .tracking.tracker import BallTracker, TrackerConfig, choose_colour
@@ -285,20 +286,39 @@ def track_clip(clip: Clip, params_file: Optional[str] = None) -> tuple[dict[int,
     return {r.index: (r.detection.u, r.detection.v) for r in results}, info
 
 
-def find_stills(clip: Clip, params_file: Optional[str] = None) -> tuple[dict[int, tuple[float, float]], dict]:
-    """Per frame, the ball StillBallFinder reports in that frame alone (its best candidate, if clear enough), or none."""
+def find_stills(clip: Clip, params_file: Optional[str] = None,
+                verifier: Optional[BallVerifier] = None) -> tuple[dict[int, tuple[float, float]], dict]:
+    """Per frame, the ball StillBallFinder reports in that frame alone (its best candidate, if clear enough), or none.
+    With a verifier, info["verified"] holds the same with the verifier's pick (still_ball._verified_pick), from the
+    same candidates, and info["fps_verified"] the rate with the verifier's scoring counted."""
     finder = StillBallFinder(params_file)
     found: dict[int, tuple[float, float]] = {}
+    verified: dict[int, tuple[float, float]] = {}
     no_field = frames = 0
-    started = time.process_time()
+    verifying = 0.0
+    started_all = time.process_time()
     for k, _, image in _frames_of(clip, DEFAULT_FPS):
-        field_, ball = finder.ball(image)
+        field_, candidates = finder.find(image)
+        ball = _pick(candidates, field_)
         frames += 1
         no_field += field_ is None
         if ball is not None:
             found[k] = (ball.u, ball.v)
-    elapsed = time.process_time() - started
-    return found, {"fps_track": frames / elapsed, "frames": frames, "no_field": no_field}
+        if verifier is not None and field_ is not None:
+            started = time.process_time()
+            chances = verifier.score(image, [(c.u, c.v) for c in candidates], field_.ball_radius_px)
+            for c, chance in zip(candidates, chances):
+                c.verified = float(chance)
+            ball = _verified_pick(candidates, field_)
+            verifying += time.process_time() - started
+            if ball is not None:
+                verified[k] = (ball.u, ball.v)
+    finding = time.process_time() - started_all - verifying  # decoding included, as for a tracked clip
+    info = {"fps_track": frames / finding, "frames": frames, "no_field": no_field}
+    if verifier is not None:
+        info.update(verified=verified, fps_verified=frames / (finding + verifying),
+                    verifier_ms=1000 * verifying / max(frames, 1))
+    return found, info
 
 
 # --- scoring -------------------------------------------------------------------------------------------------------
@@ -351,36 +371,44 @@ def goal_mouth_note(clip: Clip, info: dict, params_file: Optional[str]) -> Optio
             f"{'in' if inside else 'NOT in'} the {clip.ends_in.replace('_', ' ')} mouth")
 
 
-def run_real(root: Path, params_file: Optional[str] = None, echo=print, as_stills: bool = False) -> list[ClipResult]:
+def run_real(root: Path, params_file: Optional[str] = None, echo=print, as_stills: bool = False,
+             verifier: Optional[BallVerifier] = None) -> list[ClipResult]:
     """A row per clip. as_stills: every clip's frames scored one by one as single stills (the field found in each,
-    no tags, corners or time order), a video or a clip with markers too."""
+    no tags, corners or time order), a video or a clip with markers too. verifier: stills are scored twice in the same
+    run, without it and with it (a second row, "+verifier"), on the same candidates."""
     cv2.setNumThreads(1)
     clips = find_clips(root)
     echo(REAL_HEADER)
     results = []
     for clip in clips:
+        rows = []
         if clip.stills or as_stills:
-            detections, info = find_stills(clip, params_file)
-            mode = "stills, field found"
+            detections, info = find_stills(clip, params_file, verifier)
+            rows.append(("stills, field found", detections, info["fps_track"]))
+            if verifier is not None:
+                rows.append(("stills, +verifier", info["verified"], info["fps_verified"]))
         else:
             detections, info = track_clip(clip, params_file)
             mode = "video" if clip.video is not None else "frames"
-            mode += ", tags" if clip.markers else ", corners"
-        result = score(clip, detections, info["frames"], mode)
-        result.fps_track = info["fps_track"]
-        result.fps_decode = info.get("fps_decode", float("nan"))
-        result.notes.insert(0, clip.labels_from)
-        if info.get("no_field"):
-            result.notes.append(f"no field found in {info['no_field']} frames")
-        if "colour" in info:
-            result.notes.append(f"colour {info['colour']}")
-        # Stills have no track to end anywhere.
-        note = None if mode.startswith("stills") else goal_mouth_note(clip, info, params_file)
-        if note:
-            result.notes.append(note)
-        results.append(result)
-        echo(format_real_row(result))
-        echo(f"  {clip.name}: " + "; ".join(result.notes))
+            rows.append((mode + (", tags" if clip.markers else ", corners"), detections, info["fps_track"]))
+        for mode, found, fps in rows:
+            result = score(clip, found, info["frames"], mode)
+            result.fps_track = fps
+            result.fps_decode = info.get("fps_decode", float("nan"))
+            result.notes.insert(0, clip.labels_from)
+            if info.get("no_field"):
+                result.notes.append(f"no field found in {info['no_field']} frames")
+            if "colour" in info:
+                result.notes.append(f"colour {info['colour']}")
+            if mode.endswith("verifier"):
+                result.notes.append(f"verifier {info['verifier_ms']:.1f} ms of CPU a frame")
+            # Stills have no track to end anywhere.
+            note = None if mode.startswith("stills") else goal_mouth_note(clip, info, params_file)
+            if note:
+                result.notes.append(note)
+            results.append(result)
+            echo(format_real_row(result))
+            echo(f"  {clip.name}: " + "; ".join(result.notes))
     return results
 
 

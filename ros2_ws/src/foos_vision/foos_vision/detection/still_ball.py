@@ -37,6 +37,10 @@ than a ball's width away by MIN_LEAD: two things in a frame that look as much li
 guess, and a wrong ball costs more than none (the frame then has no ball to report). Only when the light has no clear
 ball may a tint candidate be it, leading every candidate of both cues by MIN_LEAD and reaching MIN_TINT_SCORE.
 
+A learned check may join the rules (StillBallFinder(verifier=...), detection.ball_verifier: a small net trained on the
+simulated camera's renders that scores the patch around each candidate); it is off by default, because on real frames
+it lost more balls than it found (docs/measurements/vision-2026-11-28-verifier-5.md).
+
 StillBallFinder.find(bgr) returns the field it found (a convex outline and the ball's radius in pixels there) and
 the ball candidates, best first; ball(bgr) the one it would report. The real-footage bench (real_bench) scores it
 on single frames with labels; the tracker does not use it (a video has motion and the tags' mapping, see
@@ -52,6 +56,8 @@ import cv2
 import numpy as np
 
 from foos_core.table_geometry import TableGeometry
+
+from .ball_verifier import BallVerifier
 
 WORK_WIDTH = 1280  # px: frames are searched at this width (a 1080p ball of 16-40 px keeps 11-27 px)
 FELT_CHROMA_TOL = 6.0  # Lab a/b levels around the felt's mode that are still felt
@@ -80,6 +86,9 @@ ROD_ANGLE_STEP = 0.5  # degrees: the Hough transform's angle resolution (at most
 TINT_GAIN = 3.0  # light levels per chroma level: the felt's light varies about 3x as much as its chroma (15-24 vs 7-8)
 MIN_SCORE = 0.6  # below this the best candidate is not reported: nothing in the frame is clearly a ball
 MIN_TINT_SCORE = 0.7  # the same for a candidate found by its tint: more things on a table are tinted than lit
+VETO_BELOW = 0.5  # the verifier's chance below which a hand-made pick is not reported
+MIN_VERIFIED = 0.9  # the verifier's chance a candidate needs to be the ball where the hand-made rules pick none
+MIN_VERIFIED_LEAD = 0.3  # over the verifier's next surest candidate more than a ball's width away
 MIN_LEAD = 0.1  # the best's score over the next best's more than a ball's width away: less, and the pick is a guess
 
 
@@ -102,11 +111,16 @@ class StillCandidate:
     team_balls: float  # balls' areas of the field in this candidate's colour (0: not a chromatic colour)
     score: float
     cue: str = "light"  # the map it was found in: "light" (lighter than the felt) or "tint" (its chroma, see _tinted)
+    verified: Optional[float] = None  # the ball verifier's chance that this is the ball (None: not run)
 
 
 class StillBallFinder:
-    def __init__(self, params_file: Optional[str] = None):
+    """verifier: a BallVerifier that scores every candidate (StillCandidate.verified), and whose score then picks the
+    ball (_verified_pick) instead of the hand-made rules alone (_pick)."""
+
+    def __init__(self, params_file: Optional[str] = None, verifier: Optional[BallVerifier] = None):
         self.table = TableGeometry.of(params_file)
+        self.verifier = verifier
 
     def find_field(self, bgr: np.ndarray) -> Optional[FeltField]:
         """The felt: the commonest colour of the image's middle, grown to the largest connected stretch of it."""
@@ -164,7 +178,7 @@ class StillBallFinder:
     def ball(self, bgr: np.ndarray) -> tuple[Optional[FeltField], Optional[StillCandidate]]:
         """The field and the candidate reported as the ball (None when there is no clear one, see _pick)."""
         field, candidates = self.find(bgr)
-        return field, _pick(candidates, field)
+        return field, (_pick(candidates, field) if self.verifier is None else _verified_pick(candidates, field))
 
     def find(self, bgr: np.ndarray) -> tuple[Optional[FeltField], list[StillCandidate]]:
         """The field and the ball candidates in it, best first (empty when no felt is found)."""
@@ -190,6 +204,10 @@ class StillBallFinder:
         found = (_candidates("light", lighter, light, lab, team, searched, r, scale)
                  + _candidates("tint", tinted, cv2.GaussianBlur(tinted, (0, 0), 1.0), lab, team, region > 0, r, scale))
         found.sort(key=lambda c: -c.score)
+        if self.verifier is not None:
+            chances = self.verifier.score(bgr, [(c.u, c.v) for c in found], field.ball_radius_px)
+            for c, chance in zip(found, chances):
+                c.verified = float(chance)
         return field, found
 
 
@@ -411,6 +429,21 @@ def _pick(candidates: list[StillCandidate], field: Optional[FeltField]) -> Optio
 
     lit = leader([c for c in candidates if c.cue == "light"])
     return lit if lit is not None else leader(candidates)
+
+
+def _verified_pick(candidates: list[StillCandidate], field: Optional[FeltField]) -> Optional[StillCandidate]:
+    """The ball, or None, with the verifier's chances (StillCandidate.verified) known: the hand-made pick stands where
+    the verifier does not call it a ball; where the rules pick nothing, the candidate the verifier is surest of is the
+    ball when it reaches MIN_VERIFIED and leads every candidate more than a ball's width away by MIN_VERIFIED_LEAD."""
+    picked = _pick(candidates, field)
+    if picked is not None:
+        return picked if picked.verified >= VETO_BELOW else None
+    pool = sorted(candidates, key=lambda c: -c.verified)
+    if not pool or pool[0].verified < MIN_VERIFIED:
+        return None
+    width = 2.0 * field.ball_radius_px if field is not None else 0.0
+    rival = max((c.verified for c in pool[1:] if math.hypot(c.u - pool[0].u, c.v - pool[0].v) > width), default=0.0)
+    return pool[0] if pool[0].verified - rival >= MIN_VERIFIED_LEAD else None
 
 
 def _rival_score(best: StillCandidate, candidates: list[StillCandidate], field: Optional[FeltField]) -> float:

@@ -1,0 +1,76 @@
+"""`bench_vision --still-renders`: the still finder (still_ball) on single renders of the simulated camera, with and
+without the ball verifier, on the same candidates.
+
+The set: foos_sim's LiveCamera at 1280x720 with shadows, the overhead camera with seeds 7 and 11 and the oblique camera
+with seed 11; per seed, 10 ball positions (`rng = numpy.random.default_rng(seed)`; x = rng.uniform(-0.3, 0.3, 10),
+then y = rng.uniform(-0.55, 0.55, 10)), each filmed with a white, a yellow and an orange ball, rods centred and
+hanging. The same set as the 28 Nov stills logs (stills-4: 79 of 90 found, none wrong). Found: within one ball
+diameter (the camera's own, at the ball) of the true centre; wrong: more than two. The verifier was trained on other
+renders (verifier_training: other seeds, cameras, colours and poses), never on these.
+"""
+from __future__ import annotations
+
+import math
+from typing import Optional
+
+import numpy as np
+
+from foos_sim.camera.live import LiveCamera, LiveCameraConfig
+from foos_sim.simulation import TableSimulation
+
+from .detection.ball_verifier import BallVerifier
+from .detection.still_ball import StillBallFinder, _pick, _verified_pick
+
+SETS = (("overhead", 7), ("overhead", 11), ("oblique", 11))
+COLOURS = ("white", "yellow", "orange")
+POSITIONS = 10
+
+
+def run_still_renders(verifier: Optional[BallVerifier], echo=print) -> dict[str, dict[str, int]]:
+    finder = StillBallFinder()
+    keys = ("rules", "+verifier") if verifier is not None else ("rules",)
+    rows = {key: {"found": 0, "wrong": 0, "none": 0} for key in keys}
+    echo(f"{'set':<14} {'colour':<7} {'rules found/wrong':>17} {'+verifier found/wrong':>21}")
+    for camera_name, seed in SETS:
+        rng = np.random.default_rng(seed)
+        xs, ys = rng.uniform(-0.3, 0.3, POSITIONS), rng.uniform(-0.55, 0.55, POSITIONS)
+        for colour in COLOURS:
+            camera = LiveCamera(LiveCameraConfig(rate=60, width=1280, height=720, camera=camera_name,
+                                                 ball_colour=colour, shadows=True, seed=seed))
+            counts = {key: [0, 0] for key in rows}
+            counts.setdefault("+verifier", [0, 0])
+            try:
+                for x, y in zip(xs, ys):
+                    sim = TableSimulation()
+                    sim.reset(ball_position=(float(x), float(y)), ball_velocity=(0.0, 0.0))
+                    image = camera.capture(sim.data.qpos.copy())
+                    centre = sim.ball_position()[None, :]
+                    u, v = camera.camera.project(centre)[0]
+                    depth = float(camera.camera.depth(centre)[0])
+                    diameter = 2 * camera.camera.camera_matrix()[0, 0] * sim.ball_radius / depth
+                    field, candidates = finder.find(image)
+                    picks = {"rules": _pick(candidates, field)}
+                    if verifier is not None:
+                        picks["+verifier"] = None
+                        if field is not None:
+                            chances = verifier.score(image, [(c.u, c.v) for c in candidates], field.ball_radius_px)
+                            for c, chance in zip(candidates, chances):
+                                c.verified = float(chance)
+                            picks["+verifier"] = _verified_pick(candidates, field)
+                    for key, ball in picks.items():
+                        if ball is None:
+                            rows[key]["none"] += 1
+                            continue
+                        error = math.hypot(ball.u - u, ball.v - v)
+                        counts[key][0] += error <= diameter
+                        counts[key][1] += error > 2 * diameter
+                        rows[key]["found"] += error <= diameter
+                        rows[key]["wrong"] += error > 2 * diameter
+            finally:
+                camera.close()
+            echo(f"{camera_name + ' ' + str(seed):<14} {colour:<7} {counts['rules'][0]:>8} / {counts['rules'][1]:<6} "
+                 f"{counts['+verifier'][0]:>10} / {counts['+verifier'][1]}")
+    total = len(SETS) * len(COLOURS) * POSITIONS
+    for key, row in rows.items():
+        echo(f"still renders, {key}: {row['found']} of {total} found, {row['wrong']} wrong, {row['none']} none")
+    return rows
