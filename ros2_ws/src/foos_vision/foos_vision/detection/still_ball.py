@@ -432,8 +432,8 @@ def _pick(candidates: list[StillCandidate], field: Optional[FeltField]) -> Optio
 
 
 def _verified_pick(candidates: list[StillCandidate], field: Optional[FeltField]) -> Optional[StillCandidate]:
-    """The ball, or None, with the verifier's chances (StillCandidate.verified) known: the hand-made pick stands where
-    the verifier does not call it a ball; where the rules pick nothing, the candidate the verifier is surest of is the
+    """The ball, or None, with the verifier's chances (StillCandidate.verified) known: the hand-made pick stands unless
+    the verifier gives it less than VETO_BELOW; where the rules pick nothing, the candidate the verifier is surest of is the
     ball when it reaches MIN_VERIFIED and leads every candidate more than a ball's width away by MIN_VERIFIED_LEAD."""
     picked = _pick(candidates, field)
     if picked is not None:
