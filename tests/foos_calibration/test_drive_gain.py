@@ -7,6 +7,9 @@ on the way up to that speed hardly moves where they are 0.25 s later.
 behind; one that passed on nominal drives only (the former rule) refused it (the styled bench's trial 16:
 docs/measurements/calibration-2026-11-28-bench-3.md). And an effect is still judged against nominal where the one it
 would sit behind fails: offered as candidates on a game with nothing hidden, the pair is refused.
+
+An effect that fails alone is judged again beside what has passed since: on the robot table's drives a latency judged
+first, against nominal drives that run far past a hidden speed limit, gains only beside that limit.
 """
 from __future__ import annotations
 
@@ -16,7 +19,7 @@ from foos_calibration.game_styles import GameStyle
 from foos_calibration.games import GameOptions, play
 from foos_calibration.rods import DriveData, identify, limits_of, prediction_errors
 from foos_core.names import TEAMS
-from foos_core.table_params import load_params
+from foos_core.table_params import ROBOT_PARAMS_FILE, load_params
 
 DURATION = 30.0  # s of game
 # Trial 16's hidden pair (bench_calibration --games --styles --seed 1000), on every drive.
@@ -77,3 +80,24 @@ def test_a_bang_bang_game_with_nothing_hidden_names_no_drive_effect():
     data, model = bang_bang_game([], seed=17)
     result = identify(data, model)
     assert result.effects == [], result.effects
+
+
+# The robot-table bench's trial 12 (docs/measurements/calibration-2026-11-28-robot-bench-5.md): a 52 ms latency with a
+# 1.05 m/s, 27.6 rad/s speed limit. Judged first, against nominal jerk-limited drives that run to 314 rad/s, the latency
+# gains nothing (on this game 72.8 -> 76.1 mm, 95 % [-14.9, 8.4]; 1160 -> 1149 deg, [-58.6, 25.2]) and was refused while
+# the speed limit passed; the calibrated drives stayed 43 mm and 49 deg off 0.25 s ahead. Judged again beside the speed
+# limit it passes: 1.2 mm and 6.7 deg.
+def test_a_latency_that_gains_only_beside_a_speed_limit_is_judged_again_beside_it():
+    params = load_params(ROBOT_PARAMS_FILE)
+    hidden = [{"name": "rod_latency", "params": {"delay": 0.052}},
+              {"name": "rod_speed_limit", "params": {"slide": 1.05, "rotate": 27.6}}]
+    recording = play(hidden, GameOptions(duration=DURATION, seed=11), params=params)
+    data = DriveData(recording.joint_t, recording.joint_position, recording.joint_velocity,
+                     {team: recording.command_t for team in TEAMS}, recording.commands)
+    result = identify(data, drive_model(params))
+    found = {e["name"]: e for e in result.effects}
+    assert sorted(found) == ["rod_latency", "rod_speed_limit"], (result.effects, result.refused)
+    assert abs(found["rod_latency"]["params"]["delay"] - 0.052) <= 0.005, found["rod_latency"]["params"]
+    assert found["rod_latency"]["evidence"]["gain"]["alone_with"] == ["rod_speed_limit"], found["rod_latency"]["evidence"]["gain"]
+    assert all(abs(found["rod_speed_limit"]["params"][axis] - v) <= 0.08 * v for axis, v in hidden[1]["params"].items()), \
+        found["rod_speed_limit"]["params"]

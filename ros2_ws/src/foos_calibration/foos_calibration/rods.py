@@ -207,10 +207,47 @@ def _fit_subset(team: _Team, subset: tuple[str, ...], held: dict | None = None) 
                 rss = _rss(team, drives, params).reshape(n, 3, g, 3)
                 own = rss[:, [0, 1, 2], :, [0, 1, 2]].transpose(1, 0, 2)  # each fit's own set: (8, 3, g)
                 values[c] = np.take_along_axis(candidates, np.argmin(own, axis=2)[..., None], axis=2)[..., 0]
+                fine_own, fine_candidates = own, candidates
                 candidates = _fine(c, values[c], _grid(c, team))
+            if team.jerk is not None:
+                values[c] = _between_grid_points(team, values, c, fine_candidates, fine_own)
     drives = np.repeat(np.arange(n), 3)
     rss = _rss(team, drives, {k: values[k].ravel() for k in COMPONENTS}).reshape(n, 3, 3)
     return rss, values
+
+
+def _between_grid_points(team: _Team, values: dict, component: str, candidates: np.ndarray, own: np.ndarray) -> np.ndarray:
+    """(8, 3) each fit's value of `component`: the least of a parabola through its best fine-grid candidate and the two
+    beside it (in log share for the limits), where that fits its own set better than the grid's best; else the grid's.
+
+    On the jerk-limited drives (314 rad/s) the fine grids' steps (8 % on an acceleration limit, 1.5 ms on a latency)
+    are far coarser than the data resolves: a rotation limit fitted 3.2 % low (693.3 rad/s^2, a grid point, for 716)
+    left the calibrated rotations 25.6 deg off 0.25 s ahead against 0.17 deg of encoder noise (robot-bench-5, trial 6)."""
+    g = candidates.shape[2]
+    best_index = np.argmin(own, axis=2)
+    middle = np.clip(best_index, 1, g - 2)
+    x = candidates if component == "latency" else np.log(candidates)
+
+    def at(array, index):
+        return np.take_along_axis(array, index[..., None], axis=2)[..., 0]
+    x0, x1, x2 = at(x, middle - 1), at(x, middle), at(x, middle + 1)
+    y0, y1, y2 = at(own, middle - 1), at(own, middle), at(own, middle + 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope01, slope12 = (y1 - y0) / (x1 - x0), (y2 - y1) / (x2 - x1)
+        curvature = (slope12 - slope01) / (x2 - x0)
+        vertex = np.clip((x0 + x1) / 2 - slope01 / (2 * curvature), x0, x2)
+    # A parabola only where the best is inside the grid (not clipped at a bound: equal neighbours) and curves upward.
+    ok = (best_index == middle) & (x0 < x1) & (x1 < x2) & (curvature > 0) & np.isfinite(vertex)
+    grid_best = values[component]
+    if not ok.any():
+        return grid_best
+    tried = np.where(ok, vertex if component == "latency" else np.exp(vertex), grid_best)
+    n = len(grid_best)
+    params = {k: values[k].ravel() for k in COMPONENTS}
+    params[component] = tried.ravel()
+    rss = _rss(team, np.repeat(np.arange(n), 3), params).reshape(n, 3, 3)
+    tried_own = rss[:, [0, 1, 2], [0, 1, 2]]
+    return np.where(ok & (tried_own < at(own, best_index)), tried, grid_best)
 
 
 def _fine(component: str, best: np.ndarray, grid: np.ndarray) -> np.ndarray:
