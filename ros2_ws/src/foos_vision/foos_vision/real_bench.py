@@ -41,7 +41,7 @@ from foos_core.table_geometry import TableGeometry
 
 from .camera.field_corners import field_reference
 from .detection.ball_verifier import BallVerifier
-from .detection.still_ball import StillBallFinder, _pick, _verified_pick
+from .detection.still_ball import StillBallFinder, _pick, _verified_pick, verify
 from .errors import VisionError
 from .tracking.backfill import OfflineTracker
 from .tracking.tracker import BallTracker, TrackerConfig, choose_colour
@@ -306,9 +306,7 @@ def find_stills(clip: Clip, params_file: Optional[str] = None,
             found[k] = (ball.u, ball.v)
         if verifier is not None and field_ is not None:
             started = time.process_time()
-            chances = verifier.score(image, [(c.u, c.v) for c in candidates], field_.ball_radius_px)
-            for c, chance in zip(candidates, chances):
-                c.verified = float(chance)
+            verify(verifier, image, field_, candidates)
             ball = _verified_pick(candidates, field_)
             verifying += time.process_time() - started
             if ball is not None:

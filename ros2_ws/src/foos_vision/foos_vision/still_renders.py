@@ -19,7 +19,7 @@ from foos_sim.camera.live import LiveCamera, LiveCameraConfig
 from foos_sim.simulation import TableSimulation
 
 from .detection.ball_verifier import BallVerifier
-from .detection.still_ball import StillBallFinder, _pick, _verified_pick
+from .detection.still_ball import StillBallFinder, _pick, _verified_pick, verify
 
 SETS = (("overhead", 7), ("overhead", 11), ("oblique", 11))
 COLOURS = ("white", "yellow", "orange")
@@ -53,9 +53,7 @@ def run_still_renders(verifier: Optional[BallVerifier], echo=print) -> dict[str,
                     if verifier is not None:
                         picks["+verifier"] = None
                         if field is not None:
-                            chances = verifier.score(image, [(c.u, c.v) for c in candidates], field.ball_radius_px)
-                            for c, chance in zip(candidates, chances):
-                                c.verified = float(chance)
+                            verify(verifier, image, field, candidates)
                             picks["+verifier"] = _verified_pick(candidates, field)
                     for key, ball in picks.items():
                         if ball is None:

@@ -205,10 +205,16 @@ class StillBallFinder:
                  + _candidates("tint", tinted, cv2.GaussianBlur(tinted, (0, 0), 1.0), lab, team, region > 0, r, scale))
         found.sort(key=lambda c: -c.score)
         if self.verifier is not None:
-            chances = self.verifier.score(bgr, [(c.u, c.v) for c in found], field.ball_radius_px)
-            for c, chance in zip(found, chances):
-                c.verified = float(chance)
+            verify(self.verifier, bgr, field, found)
         return field, found
+
+
+def verify(verifier: BallVerifier, bgr: np.ndarray, field: FeltField, candidates: list[StillCandidate]) -> None:
+    """Set each candidate's `verified` (in place): the verifier's chance that it is the ball, its patch scaled by the
+    field's ball radius. The benches call it on candidates found without a verifier, to pick both ways from them."""
+    chances = verifier.score(bgr, [(c.u, c.v) for c in candidates], field.ball_radius_px)
+    for c, chance in zip(candidates, chances):
+        c.verified = float(chance)
 
 
 def _candidates(cue: str, strength: np.ndarray, edges_of: np.ndarray, lab: np.ndarray, team: np.ndarray,
