@@ -232,21 +232,25 @@ def frame_samples(image: np.ndarray, ball_uv, visible: float, finder: StillBallF
             centre = (u0 + reach * math.cos(angle), v0 + reach * math.sin(angle))
             patches.append(raw_patches(image, [centre], r * rng.uniform(0.85, 1.15)))
             labels.append(1.0)
+    # The candidates' and the random points' patches share the field's radius: one raw_patches call each (it smooths
+    # the whole frame first when it shrinks it), in the order they are labelled.
+    centres = []
     for c in candidates:
         d = math.hypot(c.u - u0, c.v - v0)
         if d <= 0.5 * r and visible >= MIN_VISIBLE:
-            patches.append(raw_patches(image, [(c.u, c.v)], r))
+            centres.append((c.u, c.v))
             labels.append(1.0)
         elif d > 2 * r:
-            patches.append(raw_patches(image, [(c.u, c.v)], r))
+            centres.append((c.u, c.v))
             labels.append(0.0)
     inside = cv2.boundingRect(field.outline.astype(np.float32))
     for _ in range(RANDOM_NEGATIVES):
         u = inside[0] + rng.uniform(0, inside[2])
         v = inside[1] + rng.uniform(0, inside[3])
         if math.hypot(u - u0, v - v0) > 2 * r:
-            patches.append(raw_patches(image, [(u, v)], r))
+            centres.append((u, v))
             labels.append(0.0)
+    patches.append(raw_patches(image, centres, r))
     return np.concatenate(patches), np.array(labels, np.float32)
 
 
