@@ -186,12 +186,12 @@ def build_model(args, env, tb_dir: Path):
     return model
 
 
-def start_actor_at_zero(model, learner: str, std: float = None) -> None:
+def start_actor_at_zero(model, learner: str) -> None:
     """Zero the weights of the actor's mean head, so the mean is 0 (the action box's centre) for every
     observation, and set its spread head to a constant log std. Why: on corrections (--action residual) the learner
     otherwise starts from a random mean and random first steps, far from the scripted play it is meant to correct;
     last session's actors sat at 0.7 of their bounds from the start (docs/measurements/policy-2026-11-28-scaled.md)."""
-    log_std = float(np.log(ZERO_START_STD if std is None else std))
+    log_std = float(np.log(ZERO_START_STD))
     if learner == "sb3":
         import torch  # loaded already by algorithm_class
 
