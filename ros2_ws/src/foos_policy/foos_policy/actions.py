@@ -27,7 +27,7 @@ from foos_core.names import COMMAND_SIZE, RODS
 
 from .observation import ACTION_LIMIT, OWN_SLOT, wrap_angle
 from .scripted import SLIDE_GAIN as SCRIPTED_SLIDE_GAIN
-from .scripted import ScriptedPolicy, own_rod_geometry
+from .scripted import RESIDUAL_BASES, ScriptedPolicy, lift_ahead_angles, own_rod_geometry
 
 ACTION_MODES = ("velocity", "position", "residual")
 POSITION_ACTION_LIMIT = 1.0
@@ -86,13 +86,14 @@ def action_mode_of(action_high_saved) -> str:
                      f"scripted controller's targets ({RESIDUAL_SLIDE_OFFSET:g} m, {RESIDUAL_ROTATE_OFFSET:.4g} rad)")
 
 
-def action_map(mode: str, params: dict, command_limits):
+def action_map(mode: str, params: dict, command_limits, residual_base: str = "scripted"):
     """What turns an action of `mode` into the paper's velocity action at each control step (an object with
-    `velocity_action(obs, action)`), or None where the action is that already."""
+    `velocity_action(obs, action)`), or None where the action is that already. `residual_base` is what corrections
+    act on (RESIDUAL_BASES)."""
     if mode == "position":
         return PositionTargets(params, command_limits)
     if mode == "residual":
-        return ScriptedResidual(params, command_limits)
+        return ScriptedResidual(params, command_limits, residual_base)
     action_high(mode)  # an unknown mode is refused here
     return None
 
@@ -138,10 +139,15 @@ class ScriptedResidual:
     them, one control step at a time, from the same own-view observation the policy acts on (the ball as the
     camera loop delivers it, the own rods from their encoders). A slide follows its moved target with the
     scripted controller's gain; a rod's figures are held at the offset angle on the braking curve
-    (PositionTargets), except while the scripted controller kicks with it."""
+    (PositionTargets), except while the scripted controller kicks with it. On the `lift-ahead` base the angle
+    offsets add to the lift-ahead rule's angles."""
 
-    def __init__(self, params: dict, command_limits):
+    def __init__(self, params: dict, command_limits, base: str = "scripted"):
+        if base not in RESIDUAL_BASES:
+            raise ValueError(f"the residual base must be one of {', '.join(RESIDUAL_BASES)}, got '{base}'")
+        self.base = base
         self.scripted = ScriptedPolicy(params, command_limits)
+        self.rod_y = np.array([g.y for g in (self.scripted.geometry[rod] for rod in RODS)])
         self.hold = PositionTargets(params, command_limits)
         self.limits = np.asarray(command_limits, dtype=float)
         self.slots = np.array([OWN_SLOT[rod] for rod in RODS])
@@ -151,7 +157,8 @@ class ScriptedResidual:
         command, kicking = self.scripted.plan(obs)
         command[0::2] += SCRIPTED_SLIDE_GAIN * offset[0::2]
         rods = np.asarray(obs, dtype=float)[4:].reshape(8, 4)[self.slots]
-        error = wrap_angle(offset[1::2] - (rods[:, 2] + LEAD_S * rods[:, 3]))  # the short way round
+        held = offset[1::2] + lift_ahead_angles(obs, self.rod_y) if self.base == "lift-ahead" else offset[1::2]
+        error = wrap_angle(held - (rods[:, 2] + LEAD_S * rods[:, 3]))  # the short way round
         # braking_speed takes a distance per axis in command order; the rotations' entries are the odd ones
         hold = np.sign(error) * self.hold.braking_speed(np.repeat(np.abs(error), 2))[1::2]
         command[1::2] = np.where(kicking, command[1::2], hold)

@@ -54,6 +54,7 @@ class EnvConfig:
     camera_latency: float = CAMERA_LATENCY    # s
     camera_noise: float = POSITION_NOISE      # m per axis; the velocity's noise is VELOCITY_NOISE while this is > 0
     action: str = "velocity"            # velocity | position | residual: what the home action asks of the rods (foos_policy.actions)
+    residual_base: str = "scripted"     # scripted | lift-ahead: what `residual` corrections act on (foos_policy.actions)
     action_cost: float = 0.0            # per step, times the mean of (action / its bound)^2: keeps corrections near their base
 
 
@@ -138,7 +139,7 @@ class FoosballEnv(gym.Env):
         self._views = {"home": cfg.view, "away": cfg.opponent_view}
 
         high = action_high(cfg.action).astype(np.float32)
-        self.action_map = action_map(cfg.action, self.sim.params, self.sim.command_limits)
+        self.action_map = action_map(cfg.action, self.sim.params, self.sim.command_limits, cfg.residual_base)
 
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (OBS_SIZE,), np.float32)
         self.action_space = gym.spaces.Box(-high, high, (COMMAND_SIZE,), np.float32)

@@ -18,6 +18,7 @@ Evaluate a policy for the home team in-process on a fixed set of episode seeds a
   zero       all rods held still (the paper's serve alone)
   random     uniform random actions in [-20, 20]
   scripted   the hand-written tracking-and-kicking controller
+  lift-ahead the same, its rods ahead of the ball raised back, held on the braking curve (the residual base)
   NAME       a shipped policy, e.g. sac_hardened_scripted_s0 (see --list)
   PATH.zip   a model saved by `train`
 
@@ -43,7 +44,7 @@ Examples:
 
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="evaluate", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--policy", help="zero | random | scripted | shipped NAME | PATH.zip")
+    p.add_argument("--policy", help="zero | random | scripted | lift-ahead | shipped NAME | PATH.zip")
     add_task_arguments(p)
     p.add_argument("--transfer-to", nargs="+", default=[], metavar="PARAMS_FILE",
                    help="also play the same episodes (seeds) on these tables, e.g. the 20 kHz reference "
@@ -57,7 +58,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     args = p.parse_args(argv)
     if not args.list and not args.policy:
-        p.error("--policy is required (zero, random, scripted, a shipped name or PATH.zip)")
+        p.error("--policy is required (zero, random, scripted, lift-ahead, a shipped name or PATH.zip)")
     if args.episodes <= 0:
         p.error("--episodes must be positive")
     check_task_arguments(p, args)

@@ -13,11 +13,11 @@ from foos_core.names import COMMAND_SIZE
 from foos_core.table_params import load_params
 from foos_sim import command_limits as params_command_limits
 
-from .actions import action_map, action_mode_of
+from .actions import ScriptedResidual, action_map, action_mode_of
 from .observation import ACTION_LIMIT, OBS_SCALE, observes_scaled, scaled_observation
 from .scripted import ScriptedPolicy
 
-BASELINES = ("zero", "random", "scripted")
+BASELINES = ("zero", "random", "scripted", "lift-ahead")
 
 
 class PolicyError(ValueError):
@@ -136,6 +136,19 @@ class ScriptedBaseline(Policy):
         return self.policy.predict(obs)
 
 
+class LiftAheadBaseline(Policy):
+    """The lift-ahead base of the corrections (foos_policy.scripted) with no correction: the scripted controller's
+    tracking and kicks, its hold on the braking curve, and its rods ahead of the ball raised back."""
+
+    name = "lift-ahead"
+
+    def __init__(self, params: dict, command_limits):
+        self.base = ScriptedResidual(params, command_limits, "lift-ahead")
+
+    def predict(self, obs):
+        return self.base.velocity_action(obs, np.zeros(COMMAND_SIZE))
+
+
 class ModelPolicy(Policy):
     """A trained SAC/TQC model. One trained on position targets or on corrections to the scripted controller (its
     action box says which) is followed by what turns them into velocity actions on the table `params` describes."""
@@ -153,7 +166,12 @@ class ModelPolicy(Policy):
         if self.observes_scaled and (saved_scale is None or not np.allclose(saved_scale, OBS_SCALE)):
             raise PolicyError(f"{self.path}: trained on a scaled observation with scales {saved_scale}, not this version's "
                               f"foos_policy.observation.OBS_SCALE")
-        self.action_map = action_map(self.action_mode, *_table(params, command_limits))
+        # models saved before the lift-ahead base existed carry no base: theirs was the scripted controller
+        self.residual_base = getattr(self.model, "residual_base", "scripted")
+        try:
+            self.action_map = action_map(self.action_mode, *_table(params, command_limits), self.residual_base)
+        except ValueError as exc:
+            raise PolicyError(f"{self.path}: {exc}") from None
 
     def predict(self, obs):
         obs = np.asarray(obs, np.float32)
@@ -172,6 +190,8 @@ def make_policy(spec: str, params: Optional[dict] = None, command_limits=None, s
         return RandomPolicy(seed)
     if spec == "scripted":
         return ScriptedBaseline(*_table(params, command_limits))
+    if spec == "lift-ahead":
+        return LiftAheadBaseline(*_table(params, command_limits))
     return ModelPolicy(spec, params, command_limits)
 
 

@@ -31,7 +31,7 @@ from .policies import PolicyError, make_policy
 
 STOP_ACK_TIMEOUT_S = 2.0  # Fast DDS acknowledged it within 0.01-1.05 s here
 PARAMETERS = (
-    ("policy", "sac_hardened_scripted_s0", "shipped policy name, PATH.zip, or zero | random | scripted"),
+    ("policy", "sac_hardened_scripted_s0", "shipped policy name, PATH.zip, or zero | random | scripted | lift-ahead"),
     ("team", "home", "team to play: home, or away (observations and commands are mirrored)"),
     ("control_rate", 50.0, "Hz of commands (the policies were trained at 50 Hz)"),
     ("stale_timeout", STALE_AFTER_S, "s; older /ball/state or /joint_states (by their stamps) hold the rods"),

@@ -14,6 +14,7 @@ import numpy as np
 from tqdm import tqdm
 
 from .actions import ACTION_MODES
+from .scripted import RESIDUAL_BASES
 from .commands import add_task_arguments, check_task_arguments, run_command, write_json
 from .curriculum import stage_at, stages
 from .env import make_env
@@ -77,6 +78,10 @@ def parse_args(argv=None) -> argparse.Namespace:
                         "residual: corrections to the scripted controller's targets in [-0.04, 0.04] m (slides) and "
                         "[-pi/2, pi/2] rad (the angle the figures are held at, on the braking curve); kicks stay the "
                         "scripted controller's (default velocity)")
+    p.add_argument("--residual-base", choices=RESIDUAL_BASES, default="scripted",
+                   help="what --action residual corrects: scripted, the scripted controller; lift-ahead, the same with its "
+                        "rods ahead of the ball holding their feet raised back (foos_policy.scripted; 0.30 win, 0.09 own goals "
+                        "with zero corrections on the hardened robot task). Saved with the model (default scripted)")
     p.add_argument("--observation", choices=("raw", "scaled"), default="raw",
                    help="what the network sees: raw, the 36-D observation in SI units (rod spins up to 314 rad/s beside "
                         "positions under 1 m), or scaled, each quantity divided by a typical size and clipped at +-5 "
@@ -128,6 +133,8 @@ def parse_args(argv=None) -> argparse.Namespace:
         p.error("--n-envs, --train-freq and --gradient-steps must be positive")
     if not 0 < args.gamma <= 1:
         p.error(f"--gamma must be in (0, 1], got {args.gamma}")
+    if args.residual_base != "scripted" and args.action != "residual":
+        p.error(f"--residual-base {args.residual_base} needs --action residual")
     check_task_arguments(p, args)
     try:  # the reward's own check, before any env is made
         make_reward(args.reward, args.own_goal_penalty, args.spin_penalty)
@@ -282,7 +289,7 @@ def train(args) -> dict:
             env = make_env(first.reset, first.opponent, args.opponent_policy, reward=args.reward, own_goal_penalty=args.own_goal_penalty,
                            spin_penalty=args.spin_penalty, opponent_delay=args.opponent_delay,
                            view=args.view, opponent_view=args.opponent_view, params_file=args.params_file, action=args.action,
-                           action_cost=args.action_cost)
+                           residual_base=args.residual_base, action_cost=args.action_cost)
             if args.observation == "scaled":
                 env = ScaledObservation(env)
             env.reset(seed=args.seed * 1000 + rank)
@@ -294,6 +301,8 @@ def train(args) -> dict:
     model = build_model(args, env, out / "tb")
     if args.observation == "scaled":  # saved with the model: ModelPolicy refuses a model scaled otherwise than today
         model.observation_scale = OBS_SCALE.tolist()
+    if args.action == "residual":  # saved with the model: what its corrections act on (ModelPolicy reads it back)
+        model.residual_base = args.residual_base
     metrics = MetricsWriter(out / "metrics.csv")
     callbacks = make_callbacks(metrics, args.steps, not args.no_progress, out / "checkpoints", args.checkpoint_every, name, args.n_envs,
                                args.time_limit * 60.0, curriculum)
@@ -321,6 +330,7 @@ def train(args) -> dict:
         "spin_penalty": args.spin_penalty, "curriculum": args.curriculum,
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
         "params_file": args.params_file, "action": args.action, "observation": args.observation,
+        "residual_base": args.residual_base if args.action == "residual" else None,
         "ent_coef": args.ent_coef, "action_cost": args.action_cost, "gamma": args.gamma, "actor_start": args.actor_start,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
