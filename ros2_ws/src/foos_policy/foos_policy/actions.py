@@ -26,8 +26,8 @@ import numpy as np
 from foos_core.names import COMMAND_SIZE, RODS
 
 from .observation import ACTION_LIMIT, OWN_SLOT, wrap_angle
-from .scripted import SLIDE_GAIN as SCRIPTED_SLIDE_GAIN
 from .scripted import RESIDUAL_BASES, ScriptedPolicy, lift_ahead_angles, own_rod_geometry
+from .scripted import SLIDE_GAIN as SCRIPTED_SLIDE_GAIN
 
 ACTION_MODES = ("velocity", "position", "residual")
 POSITION_ACTION_LIMIT = 1.0

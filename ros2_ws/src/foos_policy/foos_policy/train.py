@@ -14,13 +14,13 @@ import numpy as np
 from tqdm import tqdm
 
 from .actions import ACTION_MODES
-from .scripted import RESIDUAL_BASES
 from .commands import add_task_arguments, check_task_arguments, run_command, write_json
 from .curriculum import stage_at, stages
 from .env import make_env
 from .metrics import MetricsWriter, plot_metrics, summarize_tail
 from .observation import OBS_SCALE, OBS_SCALED_BOUND, OBS_SIZE, scaled_observation
 from .policies import algorithm_class
+from .scripted import RESIDUAL_BASES
 from .tasks import REWARDS, make_reward
 
 ZERO_START_STD = 0.2  # --actor-start zero: the spread before the tanh (a correction's first draws within about a fifth of its bound)
