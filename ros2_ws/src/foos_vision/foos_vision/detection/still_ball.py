@@ -1,9 +1,11 @@
 """The ball in one frame, with nothing else known: no tags, no corners, no colour, no frames before it.
 
 What a ball is, in one picture of a table: the playing field is the largest stretch of one colour in the middle of
-the image (the felt); the ball lies on it, is as wide as the table's ball is in the felt's own scale (field_size /
-ball diameter), and is lighter than the felt (every ball colour in play, white, yellow, yellow-green, orange and
-cork, is lighter than green, blue or black felt, while the figures' heads and the shadows are darker or the same).
+the image (the felt) that the rods cross (a zoomed-out frame's crowd and floor can be the middle's commonest colour;
+no rods cross them, so the next commonest colour is tried); the ball lies on it, is as wide as the table's ball is
+in the felt's own scale (field_size / ball diameter), and is lighter than the felt (every ball colour in play,
+white, yellow, yellow-green, orange and cork, is lighter than green, blue or black felt, while the figures' heads and
+the shadows are darker or the same).
 
 Candidates are the peaks of a disc-minus-ring filter on how much lighter than the felt around it each pixel is,
 at the ball's predicted radius (a disc as wide as the ball and lighter than its surroundings answers most; a line, a
@@ -64,8 +66,9 @@ FELT_CHROMA_TOL = 6.0  # Lab a/b levels around the felt's mode that are still fe
 FELT_LIGHT_TOL = 45.0  # L levels: the felt's light falls off toward the walls
 MIN_FELT_FILL = 0.5  # of the felt's closed stretch that is felt-coloured
 MIN_FIELD_SHARE = 0.08  # of the image: less, and the felt found is not a table's playing field
-FELT_TRIES = 1  # the middle's commonest colours tried as the felt, commonest first
-MIN_ROD_LINES = 0  # rods' lines (_rod_family) a table's felt is crossed by, at least
+FELT_TRIES = 3  # the middle's commonest colours tried as the felt, commonest first
+MIN_ROD_LINES = 4  # rods' lines (_rod_family) a table's felt is crossed by, at least: half of its 8 rods, as a frame
+# that shows part of the field has them (the felt of the real stills and renders: 24-58 lines; 225's grey clothing: 0)
 FIELD_MARGIN = 2.0  # ball radii: the ball is searched this far past the felt found (its lit or shaded ends and walls)
 SCALES = (0.75, 0.9)  # of the predicted radius: the lit part of a ball (its shaded underside is the felt's light)
 RING = (1.3, 1.9)  # radii of the ring of surroundings, in disc radii
@@ -125,7 +128,7 @@ class StillBallFinder:
         self.verifier = verifier
 
     def find_field(self, bgr: np.ndarray) -> Optional[FeltField]:
-        """The felt: the commonest colour of the image's middle, grown to the largest connected stretch of it."""
+        """The felt: the commonest colour of the image's middle whose largest connected stretch the rods cross."""
         scale = WORK_WIDTH / bgr.shape[1]
         small = cv2.resize(bgr, (WORK_WIDTH, round(bgr.shape[0] * scale)), interpolation=cv2.INTER_AREA)
         lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab)
