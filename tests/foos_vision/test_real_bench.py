@@ -4,6 +4,7 @@ The real footage (../shared/realdata, see its README) may not be copied into the
 skip where it is absent. The others build their clips from frames drawn here."""
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -182,3 +183,46 @@ def test_throughput_rows_give_decoding_alone_and_with_tracking(overhead_video):
     assert frames == 73  # 1.2 s at 60 fps, the first frame at 0 and the last at 1.2 s
     assert 0 < tracked < decode and 0 < ratio < 1 and tracker_ms > 0, fields
     assert fields[7] in ("met", "missed") and len(fields[8:]) == 2  # the two runs, decoding alone / with tracking
+
+
+@pytest.mark.timeout(180)
+def test_per_frame_lines_of_stills(tmp_path):
+    # Drawn stills (test_still_ball.drawn_still: a 35 mm ball 40.6 px wide at (1200, 500)) with YOLO labels: one found,
+    # one with a second ball alike (a guess: no pick, the labelled ball still a candidate), one labelled where no ball
+    # is (the pick is then wrong, and nothing near the label is a candidate), one with no ball and an empty label.
+    from foos_vision.detection.still_ball import MIN_SCORE
+    from foos_vision.real_bench import per_frame_lines, run_real
+
+    from .test_still_ball import drawn_still
+
+    twin = drawn_still()
+    cv2.circle(twin, (600, 800), 20, (235, 235, 235), -1, cv2.LINE_AA)
+    frames = {"a": (drawn_still(), (1200, 500)), "b": (twin, (600, 800)), "c": (drawn_still(), (400, 250)),
+              "d": (drawn_still(ball=None), None)}
+    for stem, (image, label) in frames.items():
+        cv2.imwrite(str(tmp_path / f"{stem}.png"), image)
+        text = f"0 {label[0] / 1920:.6f} {label[1] / 1080:.6f} {40 / 1920:.6f} {40 / 1080:.6f}\n" if label else ""
+        (tmp_path / f"{stem}.txt").write_text(text)
+    printed: list[str] = []
+    run_real(tmp_path, echo=printed.append, per_frame=True)
+    lines = [line.strip() for line in printed if line.startswith("    ")]
+    assert len(lines) == 4, printed
+    a, b, c, d = lines
+    assert a.startswith("a.png: found: label (1200, 500); pick (") and "px off" in a and "candidate" not in a, a
+    assert b.startswith("b.png: missed: label (600, 800); no pick; ball's best candidate: rank ") and ", light, score " \
+        in b, b
+    assert b.split("rank ")[1].split(",")[0] in ("1", "2") and float(b.split("score ")[1]) >= MIN_SCORE, b
+    assert c.startswith("c.png: wrong: label (400, 250); pick ("), c
+    u, v = (float(x) for x in c.split("pick (")[1].split(")")[0].split(","))
+    off = float(c.split("pick (")[1].split(") ")[1].split(" px off")[0])
+    assert math.hypot(u - 1200, v - 500) < 4 and abs(off - math.hypot(u - 400, v - 250)) < 1, c
+    assert c.endswith("no candidate within a diameter"), c
+    assert d == "d.png: none: no ball labelled; no pick", d
+    # The same frames without a field's worth of felt are no still's lines: per_frame_lines is score's verdicts alone.
+    clip = read_clip(tmp_path)
+    assert per_frame_lines(clip, {}, 4)[0] == "a.png: missed: label (1200, 500); no pick", per_frame_lines(clip, {}, 4)
+
+
+def test_per_frame_needs_stills():
+    result = bench("--real", "somewhere", "--per-frame", timeout=60)
+    assert result.returncode == 2 and "--per-frame goes with --real DIR --stills" in result.stderr, result.stderr

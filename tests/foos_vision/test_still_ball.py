@@ -19,12 +19,21 @@ from foos_vision.detection.still_ball import (
     StillCandidate,
 )
 
+# Eight steel rods (16 mm: 18 px) across the field's width, 150 mm apart, past the felt on both sides, as on a table.
+RODS_U = sorted(960 + side * d for d in (87, 261, 435, 609) for side in (-1, 1))
 
-def drawn_still(ball=(1200, 500), ball_bgr=(235, 235, 235), heads_bgr=(30, 30, 30), felt_bgr=(60, 130, 50)):
+
+def drawn_still(ball=(1200, 500), ball_bgr=(235, 235, 235), heads_bgr=(30, 30, 30), felt_bgr=(60, 130, 50),
+                rods=True):
     """A 1920x1080 frame: grey floor, a felt (green unless told) 1400 x 790 px (a 1.2 x 0.68 m field at 1160 px/m),
-    white lines, figures' heads of the ball's size, and a ball (35 mm: 40.6 px across; none when ball is None)."""
+    white lines, figures' heads of the ball's size, and a ball (35 mm: 40.6 px across; none when ball is None).
+    rods: the eight rods across the felt at the regulation spacing (RODS_U), thin and in shade (dark), under the ball
+    and the lines: a felt is crossed by its rods (still_ball.MIN_ROD_LINES), and dark rods add no light near a ball."""
     frame = np.full((1080, 1920, 3), (90, 90, 90), np.uint8)
     cv2.rectangle(frame, (260, 145), (1660, 935), felt_bgr, -1)
+    if rods:
+        for u in RODS_U:
+            cv2.rectangle(frame, (u - 3, 0), (u + 3, 1079), (40, 40, 40), -1)
     cv2.line(frame, (960, 145), (960, 935), (240, 240, 240), 6)
     cv2.circle(frame, (960, 540), 120, (240, 240, 240), 6)
     for u in (500, 700, 1400):
@@ -74,14 +83,10 @@ def test_a_rods_highlight_against_a_figure_is_not_round():
     assert reflection and ball.rim >= 0.9 and max(c.rim for c in reflection) <= 0.75, (ball, reflection)
 
 
-# Eight steel rods (16 mm: 18 px) across the field's width, 150 mm apart, past the felt on both sides, as on a table.
-RODS_U = sorted(960 + side * d for d in (87, 261, 435, 609) for side in (-1, 1))
-
-
 def rods_still(ball=(1134, 500), foot=True):
     """drawn_still with rods, a lamp's reflection on one rod cut off by a dark figure (32 px across: wider than the
     rod, near the ball's 40), and a ball between two rods, its upper right hidden by a figure's foot (foot=True)."""
-    frame = drawn_still(ball=None)
+    frame = drawn_still(ball=None, rods=False)
     for u in RODS_U:
         cv2.rectangle(frame, (u - 9, 0), (u + 9, 1079), (150, 150, 150), -1)
         for edge in (u - 9, u + 9):
@@ -283,6 +288,19 @@ def test_a_ball_on_the_lit_end_of_the_felt_is_searched():
     field, ball = StillBallFinder().ball(cv2.GaussianBlur(frame, (5, 5), 1.0))
     assert field is not None and field.outline[:, 1].min() > 185, field.outline[:, 1].min()
     assert ball is not None and math.hypot(ball.u - 1200, ball.v - 170) < 3.0, ball
+
+
+def test_a_felt_is_crossed_by_rods():
+    # A stretch of one colour that no rod crosses is no table's felt (leonhart's frame 225: a crowd's grey clothes were
+    # the middle's commonest colour, vision-2026-11-28-stills-6.md): the next commonest colour is tried, here the felt.
+    frame = drawn_still(ball=(1200, 500))
+    cv2.rectangle(frame, (500, 100), (1100, 1000), (110, 95, 120), -1)  # clothing in front of the table's left half
+    field, ball = StillBallFinder().ball(frame)
+    felt_lab = cv2.cvtColor(np.uint8([[(60, 130, 50)]]), cv2.COLOR_BGR2Lab)[0, 0].astype(float)
+    assert field is not None and np.abs(np.array(field.felt_lab[1:]) - felt_lab[1:]).max() < 4, field
+    assert ball is not None and math.hypot(ball.u - 1200, ball.v - 500) < 4.0, ball
+    # The same felt without its rods: nothing in the frame is a table's felt.
+    assert StillBallFinder().find(drawn_still(rods=False)) == (None, [])
 
 
 def test_no_felt_no_field():

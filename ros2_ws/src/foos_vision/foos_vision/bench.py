@@ -373,6 +373,10 @@ def main(argv=None) -> None:
     p.add_argument("--stills", action="store_true",
                    help="with --real: score every frame alone as a single still (the field found in it, no tags, "
                         "corners or time order), a video or a clip with markers too")
+    p.add_argument("--per-frame", action="store_true",
+                   help="with --stills: a line per scored frame under the clip's row: found / near / wrong / missed / "
+                        "none, the label's centre, the pick and its distance (px), and where the pick is not found the "
+                        "ball's best candidate (its rank, cue and score)")
     p.add_argument("--verifier", metavar="WEIGHTS", nargs="?", const="", default=None,
                    help="with --stills or --still-renders: also pick with the ball verifier (a second row, same "
                         "candidates); WEIGHTS: an .npz of its weights (default: the one foos_vision ships)")
@@ -396,6 +400,8 @@ def main(argv=None) -> None:
         return
     if args.stills and not args.real:
         p.error("--stills goes with --real DIR")
+    if args.per_frame and not args.stills:
+        p.error("--per-frame goes with --real DIR --stills")
     if args.verifier is not None and not (args.stills or args.still_renders):
         p.error("--verifier goes with --stills or --still-renders")
 
@@ -406,7 +412,8 @@ def main(argv=None) -> None:
         run_cli_body(lambda: run_still_renders(verifier()))
         return
     if args.real:
-        run_cli_body(lambda: run_real(Path(args.real), args.params_file, as_stills=args.stills, verifier=verifier()))
+        run_cli_body(lambda: run_real(Path(args.real), args.params_file, as_stills=args.stills, verifier=verifier(),
+                                             per_frame=args.per_frame))
         return
     cases = list(SHOT_CASES if args.shots else CASES)
     if args.cases:

@@ -286,20 +286,24 @@ def track_clip(clip: Clip, params_file: Optional[str] = None) -> tuple[dict[int,
     return {r.index: (r.detection.u, r.detection.v) for r in results}, info
 
 
-def find_stills(clip: Clip, params_file: Optional[str] = None,
-                verifier: Optional[BallVerifier] = None) -> tuple[dict[int, tuple[float, float]], dict]:
+def find_stills(clip: Clip, params_file: Optional[str] = None, verifier: Optional[BallVerifier] = None,
+                keep_candidates: bool = False) -> tuple[dict[int, tuple[float, float]], dict]:
     """Per frame, the ball StillBallFinder reports in that frame alone (its best candidate, if clear enough), or none.
     With a verifier, info["verified"] holds the same with the verifier's pick (still_ball._verified_pick), from the
-    same candidates, and info["fps_verified"] the rate with the verifier's scoring counted."""
+    same candidates, and info["fps_verified"] the rate with the verifier's scoring counted. keep_candidates:
+    info["candidates"] holds each frame's candidates, best first (for per_frame_lines)."""
     finder = StillBallFinder(params_file)
     found: dict[int, tuple[float, float]] = {}
     verified: dict[int, tuple[float, float]] = {}
+    kept: dict[int, list] = {}
     no_field = frames = 0
     verifying = 0.0
     started_all = time.process_time()
     for k, _, image in _frames_of(clip, DEFAULT_FPS):
         field_, candidates = finder.find(image)
         ball = _pick(candidates, field_)
+        if keep_candidates:
+            kept[k] = candidates
         frames += 1
         no_field += field_ is None
         if ball is not None:
@@ -312,7 +316,7 @@ def find_stills(clip: Clip, params_file: Optional[str] = None,
             if ball is not None:
                 verified[k] = (ball.u, ball.v)
     finding = time.process_time() - started_all - verifying  # decoding included, as for a tracked clip
-    info = {"fps_track": frames / finding, "frames": frames, "no_field": no_field}
+    info = {"fps_track": frames / finding, "frames": frames, "no_field": no_field, "candidates": kept}
     if verifier is not None:
         info.update(verified=verified, fps_verified=frames / (finding + verifying),
                     verifier_ms=1000 * verifying / max(frames, 1))
@@ -354,6 +358,53 @@ def score(clip: Clip, detections: dict[int, tuple[float, float]], frames: int, m
     return ClipResult(clip.name, mode, frames, len(in_view), found, len(detections), false, [])
 
 
+def per_frame_lines(clip: Clip, detections: dict[int, tuple[float, float]], frames: int,
+                    candidates: Optional[dict[int, list]] = None) -> list[str]:
+    """One line per scored frame, in score's terms: `found` (the pick within one diameter of the label), `near`
+    (within two: neither found nor false), `wrong` (farther, or a pick in a frame with no ball), `missed` (no pick
+    with the ball labelled), `none` (no pick, no ball); the label's centre, the pick and its distance (px); and where
+    the pick is not `found`, the ball's best candidate (the best-scored within one diameter of the label: its rank
+    among the frame's candidates from 1, its cue and its score), or `no candidate` within a diameter. A visibility
+    list has no positions: a frame is then found, missed, wrong or none by the list alone."""
+    def name(k: int) -> str:
+        return clip.frames[k].name if clip.frames and k < len(clip.frames) else f"frame {k}"
+
+    lines = []
+    if clip.labels is None:
+        assert clip.visible is not None
+        for k in range(frames):
+            seen, visible = detections.get(k), k in clip.visible
+            verdict = ("found" if seen else "missed") if visible else ("wrong" if seen else "none")
+            pick = f" pick ({seen[0]:.0f}, {seen[1]:.0f})" if seen else ""
+            lines.append(f"{name(k)}: {verdict}{' (in view)' if visible else ''}{pick}")
+        return lines
+    diameter = float(np.median([w for balls in clip.labels.values() for _, _, w in balls] or [float("nan")]))
+    for k, balls in clip.labels.items():
+        seen = detections.get(k)
+        pick = f"; pick ({seen[0]:.0f}, {seen[1]:.0f})" if seen else "; no pick"
+        if not balls:
+            lines.append(f"{name(k)}: {'wrong' if seen else 'none'}: no ball labelled{pick}")
+            continue
+        cx, cy, _ = min(balls, key=lambda b: math.hypot(seen[0] - b[0], seen[1] - b[1]) if seen else 0.0)
+        error = math.hypot(seen[0] - cx, seen[1] - cy) if seen else None
+        if error is None:
+            verdict = "missed"
+        else:
+            verdict = "found" if error <= diameter else "near" if error <= 2 * diameter else "wrong"
+            pick += f" {error:.1f} px off"
+        line = f"{name(k)}: {verdict}: label ({cx:.0f}, {cy:.0f}){pick}"
+        if verdict != "found" and candidates is not None:
+            ranked = [(rank, c) for rank, c in enumerate(candidates.get(k, []), start=1)
+                      if math.hypot(c.u - cx, c.v - cy) <= diameter]
+            if ranked:
+                rank, best = ranked[0]
+                line += f"; ball's best candidate: rank {rank}, {best.cue}, score {best.score:.2f}"
+            else:
+                line += "; ball's best candidate: no candidate within a diameter"
+        lines.append(line)
+    return lines
+
+
 def goal_mouth_note(clip: Clip, info: dict, params_file: Optional[str]) -> Optional[str]:
     """Whether the track's last detection lies in the goal mouth the visibility list names."""
     if clip.ends_in is None:
@@ -370,10 +421,11 @@ def goal_mouth_note(clip: Clip, info: dict, params_file: Optional[str]) -> Optio
 
 
 def run_real(root: Path, params_file: Optional[str] = None, echo=print, as_stills: bool = False,
-             verifier: Optional[BallVerifier] = None) -> list[ClipResult]:
+             verifier: Optional[BallVerifier] = None, per_frame: bool = False) -> list[ClipResult]:
     """A row per clip. as_stills: every clip's frames scored one by one as single stills (the field found in each,
     no tags, corners or time order), a video or a clip with markers too. verifier: stills are scored twice in the same
-    run, without it and with it (a second row, "+verifier"), on the same candidates."""
+    run, without it and with it (a second row, "+verifier"), on the same candidates. per_frame: under each stills
+    row, a line per scored frame (per_frame_lines)."""
     cv2.setNumThreads(1)
     clips = find_clips(root)
     echo(REAL_HEADER)
@@ -381,7 +433,7 @@ def run_real(root: Path, params_file: Optional[str] = None, echo=print, as_still
     for clip in clips:
         rows = []
         if clip.stills or as_stills:
-            detections, info = find_stills(clip, params_file, verifier)
+            detections, info = find_stills(clip, params_file, verifier, keep_candidates=per_frame)
             rows.append(("stills, field found", detections, info["fps_track"]))
             if verifier is not None:
                 rows.append(("stills, +verifier", info["verified"], info["fps_verified"]))
@@ -407,6 +459,9 @@ def run_real(root: Path, params_file: Optional[str] = None, echo=print, as_still
             results.append(result)
             echo(format_real_row(result))
             echo(f"  {clip.name}: " + "; ".join(result.notes))
+            if per_frame and mode.startswith("stills"):
+                for line in per_frame_lines(clip, found, info["frames"], info["candidates"]):
+                    echo(f"    {line}")
     return results
 
 

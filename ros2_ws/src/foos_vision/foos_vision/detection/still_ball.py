@@ -1,9 +1,11 @@
 """The ball in one frame, with nothing else known: no tags, no corners, no colour, no frames before it.
 
 What a ball is, in one picture of a table: the playing field is the largest stretch of one colour in the middle of
-the image (the felt); the ball lies on it, is as wide as the table's ball is in the felt's own scale (field_size /
-ball diameter), and is lighter than the felt (every ball colour in play, white, yellow, yellow-green, orange and
-cork, is lighter than green, blue or black felt, while the figures' heads and the shadows are darker or the same).
+the image (the felt) that the rods cross (a zoomed-out frame's crowd and floor can be the middle's commonest colour;
+no rods cross them, so the next commonest colour is tried); the ball lies on it, is as wide as the table's ball is
+in the felt's own scale (field_size / ball diameter), and is lighter than the felt (every ball colour in play,
+white, yellow, yellow-green, orange and cork, is lighter than green, blue or black felt, while the figures' heads and
+the shadows are darker or the same).
 
 Candidates are the peaks of a disc-minus-ring filter on how much lighter than the felt around it each pixel is,
 at the ball's predicted radius (a disc as wide as the ball and lighter than its surroundings answers most; a line, a
@@ -64,6 +66,9 @@ FELT_CHROMA_TOL = 6.0  # Lab a/b levels around the felt's mode that are still fe
 FELT_LIGHT_TOL = 45.0  # L levels: the felt's light falls off toward the walls
 MIN_FELT_FILL = 0.5  # of the felt's closed stretch that is felt-coloured
 MIN_FIELD_SHARE = 0.08  # of the image: less, and the felt found is not a table's playing field
+FELT_TRIES = 3  # the middle's commonest colours tried as the felt, commonest first
+MIN_ROD_LINES = 4  # rods' lines (_rod_family) a table's felt is crossed by, at least: half of its 8 rods, as a frame
+# that shows part of the field has them (the felt of the real stills and renders: 24-58 lines; 225's grey clothing: 0)
 FIELD_MARGIN = 2.0  # ball radii: the ball is searched this far past the felt found (its lit or shaded ends and walls)
 SCALES = (0.75, 0.9)  # of the predicted radius: the lit part of a ball (its shaded underside is the felt's light)
 RING = (1.3, 1.9)  # radii of the ring of surroundings, in disc radii
@@ -123,25 +128,38 @@ class StillBallFinder:
         self.verifier = verifier
 
     def find_field(self, bgr: np.ndarray) -> Optional[FeltField]:
-        """The felt: the commonest colour of the image's middle, grown to the largest connected stretch of it."""
+        """The felt: the commonest colour of the image's middle whose largest connected stretch the rods cross."""
         scale = WORK_WIDTH / bgr.shape[1]
         small = cv2.resize(bgr, (WORK_WIDTH, round(bgr.shape[0] * scale)), interpolation=cv2.INTER_AREA)
         lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab)
         return self._felt(lab, scale)[0]
 
     def _felt(self, lab: np.ndarray, scale: float) -> tuple[Optional[FeltField], Optional[np.ndarray]]:
+        field, region, _ = self._felt_and_rods(lab, scale)
+        return field, region
+
+    def _felt_and_rods(self, lab: np.ndarray,
+                       scale: float) -> tuple[Optional[FeltField], Optional[np.ndarray], list[tuple[float, float]]]:
+        """The first of the middle's commonest colours (FELT_TRIES at most) whose stretch is a table's felt: large
+        enough, mostly of its colour, and crossed by the rods (MIN_ROD_LINES of them). A crowd's grey clothes and the
+        floor can be the commonest colour of the middle where the camera zooms out; they are crossed by no rods."""
         h, w = lab.shape[:2]
-        # The table is in the middle of the picture, and the felt is most of the table: its colour is the commonest
-        # chroma (a, b) of the middle third of the image, in bins of FELT_CHROMA_TOL, refined on the pixels near it.
-        # Not the median: where the centre circle, its line and a logo fill the middle (an overhead camera), the
-        # median is a mix of felt and white that is neither.
+        # The table is in the middle of the picture, and the felt is most of the table.
         middle = lab[h // 3:2 * h // 3, w // 3:2 * w // 3].reshape(-1, 3).astype(np.float32)
-        bins = (middle[:, 1:] // FELT_CHROMA_TOL).astype(int)
-        side = 256 // int(FELT_CHROMA_TOL) + 1
-        counts = np.bincount(bins[:, 0] * side + bins[:, 1], minlength=side * side).reshape(side, side)
-        counts = cv2.boxFilter(counts.astype(np.float32), -1, (3, 3), normalize=False, borderType=cv2.BORDER_CONSTANT)
-        ka, kb = np.unravel_index(int(np.argmax(counts)), counts.shape)
-        a0, b0 = (ka + 0.5) * FELT_CHROMA_TOL, (kb + 0.5) * FELT_CHROMA_TOL
+        for a0, b0 in _commonest_chromas(middle, FELT_TRIES):
+            field, region = self._felt_of(lab, scale, middle, a0, b0)
+            if field is None:
+                continue
+            rods = _rod_family(lab, region)
+            if len(rods) >= MIN_ROD_LINES:
+                return field, region, rods
+        return None, None, []
+
+    def _felt_of(self, lab: np.ndarray, scale: float, middle: np.ndarray, a0: float,
+                 b0: float) -> tuple[Optional[FeltField], Optional[np.ndarray]]:
+        """The largest connected stretch of the colour near chroma (a0, b0) (refined on the middle's pixels near it),
+        or None where it is too small or not mostly of that colour."""
+        h, w = lab.shape[:2]
         chroma_near = ((np.abs(middle[:, 1] - a0) <= 1.5 * FELT_CHROMA_TOL)
                        & (np.abs(middle[:, 2] - b0) <= 1.5 * FELT_CHROMA_TOL))
         l0, a0, b0 = (float(x) for x in np.median(middle[chroma_near], axis=0))
@@ -185,12 +203,12 @@ class StillBallFinder:
         scale = WORK_WIDTH / bgr.shape[1]
         small = cv2.resize(bgr, (WORK_WIDTH, round(bgr.shape[0] * scale)), interpolation=cv2.INTER_AREA)
         lab = cv2.cvtColor(small, cv2.COLOR_BGR2Lab)
-        field, region = self._felt(lab, scale)
+        field, region, rod_family = self._felt_and_rods(lab, scale)
         if field is None:
             return None, []
         r = field.ball_radius_px * scale
         lighter, around = _lighter_than_felt(small, lab, r)
-        rods = _rod_lines(lab, region) > 0
+        rods = _rod_lines(lab, region, rod_family) > 0
         lighter[rods] = 0.0
         team = _team_colours(lab, region, field.felt_lab, r)
         tinted = _tinted(lab, around, lighter, team)
@@ -243,6 +261,24 @@ def _candidates(cue: str, strength: np.ndarray, edges_of: np.ndarray, lab: np.nd
     return found
 
 
+def _commonest_chromas(middle: np.ndarray, tries: int) -> list[tuple[float, float]]:
+    """The centres of the `tries` commonest chromas (a, b) of the pixels, in bins of FELT_CHROMA_TOL, each at least
+    3 bins from the ones before it. Not the median: where the centre circle, its line and a logo fill the middle (an
+    overhead camera), the median is a mix of felt and white that is neither."""
+    bins = (middle[:, 1:] // FELT_CHROMA_TOL).astype(int)
+    side = 256 // int(FELT_CHROMA_TOL) + 1
+    counts = np.bincount(bins[:, 0] * side + bins[:, 1], minlength=side * side).reshape(side, side)
+    counts = cv2.boxFilter(counts.astype(np.float32), -1, (3, 3), normalize=False, borderType=cv2.BORDER_CONSTANT)
+    peaks = []
+    for _ in range(tries):
+        ka, kb = np.unravel_index(int(np.argmax(counts)), counts.shape)
+        if counts[ka, kb] <= 0:
+            break
+        peaks.append(((ka + 0.5) * FELT_CHROMA_TOL, (kb + 0.5) * FELT_CHROMA_TOL))
+        counts[max(0, ka - 2):ka + 3, max(0, kb - 2):kb + 3] = 0.0
+    return peaks
+
+
 def _lighter_than_felt(small: np.ndarray, lab: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
     """How much lighter than the felt around it each pixel is (L levels, 0 where darker: a dark figure next to a
     light spot must not make it look like a ball), and the felt around each pixel (Lab, float)."""
@@ -278,19 +314,30 @@ def _tinted(lab: np.ndarray, around: np.ndarray, lighter: np.ndarray, team: np.n
     return tint
 
 
-def _rod_lines(lab: np.ndarray, region: np.ndarray) -> np.ndarray:
-    """A mask of the rods' lines (1 on them, each one pixel wide): the straight lines that cross the felt for at least
-    ROD_SPAN of its short side with an edge on at least ROD_COVER of that way, within ROD_TURN of the direction most
-    such lines share."""
+def _rod_lines(lab: np.ndarray, region: np.ndarray, family: Optional[list[tuple[float, float]]] = None) -> np.ndarray:
+    """A mask of the rods' lines (1 on them, each one pixel wide): _rod_family's lines (or the family given) drawn."""
+    mask = np.zeros(region.shape, np.uint8)
+    h, w = region.shape
+    reach = 2 * int(math.hypot(h, w))
+    for r, t in (_rod_family(lab, region) if family is None else family):
+        c, s = math.cos(t), math.sin(t)
+        cv2.line(mask, (round(c * r + s * reach), round(s * r - c * reach)),
+                 (round(c * r - s * reach), round(s * r + c * reach)), 1, 1)
+    return mask
+
+
+def _rod_family(lab: np.ndarray, region: np.ndarray) -> list[tuple[float, float]]:
+    """The rods' lines as (rho, theta) in work pixels: the straight lines that cross the felt for at least ROD_SPAN of
+    its short side with an edge on at least ROD_COVER of that way, within ROD_TURN of the direction most such lines
+    share."""
     light = cv2.GaussianBlur(lab[..., 0], (0, 0), 1.0)
     # The edges the rim uses (MIN_EDGE per px; a 3x3 Sobel answers 8 per level per px), hysteresis up to twice that.
     edges = cv2.Canny(light, 8 * MIN_EDGE, 16 * MIN_EDGE)
-    mask = np.zeros(region.shape, np.uint8)
     (_, _), (rw, rh), _ = cv2.minAreaRect(cv2.findNonZero(region))
     least = ROD_SPAN * min(rw, rh)
     lines = cv2.HoughLines(edges, 1, math.radians(ROD_ANGLE_STEP), max(1, int(least)))
     if lines is None:
-        return mask
+        return []
     # An edge within a pixel of the line is on it (the line's angle is quantised).
     near = cv2.dilate(edges, np.ones((3, 3), np.uint8))
     h, w = region.shape
@@ -311,19 +358,13 @@ def _rod_lines(lab: np.ndarray, region: np.ndarray) -> np.ndarray:
             rods.append((rho, theta, way * cover, ends))
     rods = _one_line_per_edge(rods)
     if not rods:
-        return mask
+        return []
     # The rods' direction: the mean of the lines' directions, weighted by their edges (angles doubled: a line's
     # direction is the same at theta and theta + 180 degrees).
     rho, theta, weight = (np.array(column) for column in zip(*rods))
     common = 0.5 * math.atan2(float(np.sum(weight * np.sin(2 * theta))), float(np.sum(weight * np.cos(2 * theta))))
     family = np.abs((theta - common + math.pi / 2) % math.pi - math.pi / 2) <= math.radians(ROD_TURN)
-    rho, theta = rho[family], theta[family]
-    reach = 2 * int(math.hypot(h, w))
-    for r, t in zip(rho, theta):
-        c, s = math.cos(t), math.sin(t)
-        cv2.line(mask, (round(c * r + s * reach), round(s * r - c * reach)),
-                 (round(c * r - s * reach), round(s * r + c * reach)), 1, 1)
-    return mask
+    return [(float(r), float(t)) for r, t in zip(rho[family], theta[family])]
 
 
 def _one_line_per_edge(lines: list) -> list:
