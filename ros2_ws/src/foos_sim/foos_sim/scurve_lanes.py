@@ -74,6 +74,9 @@ def _plan(v0, a0, target, accel, jerk):
 @njit(cache=True)
 def _evaluate(v0, a0, target, jerk1, t1, t2, jerk3, t3, elapsed):
     """scurve.evaluate's (velocity, acceleration) for one lane's plan `elapsed` after its start."""
+    remaining = elapsed - t1 - t2 - t3  # scurve.evaluate's `remaining` after the three phases, the same subtractions
+    if remaining >= 0.0:
+        return target, 0.0  # past the profile (most samples of a settled lane): the phases' sums are not needed
     v = v0 + 0.0 * elapsed
     a = a0 + 0.0 * elapsed
     remaining = elapsed
@@ -88,9 +91,6 @@ def _evaluate(v0, a0, target, jerk1, t1, t2, jerk3, t3, elapsed):
     e = _min(_max(remaining, 0.0), t3)
     v = v + (a + jerk3 * e / 2.0) * e
     a = a + jerk3 * e
-    remaining = remaining - t3
-    if remaining >= 0.0:
-        return target, 0.0
     return v, a
 
 
