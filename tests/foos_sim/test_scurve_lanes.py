@@ -63,8 +63,9 @@ def test_sampled_gives_numpy_advances_bits_at_every_sample(ascending):
         sample_t = rng.permutation(sample_t)
     column = rng.integers(0, goals.shape[1], 40)
     shift = rng.choice([0.0, 0.0075, 0.0342, 0.15], 40)
-    v, a = scurve_lanes.sampled(event_t, v_event, a_event, goals, column, sample_t, shift, accel[column], jerk[column], True)
-    v_only, _ = scurve_lanes.sampled(event_t, v_event, a_event, goals, column, sample_t, shift, accel[column], jerk[column], False)
+    rows = [np.ascontiguousarray(x.T) for x in (v_event, a_event, goals)]  # a lane a row, as drive_shaping keeps them
+    v, a = scurve_lanes.sampled(event_t, *rows, column, sample_t, shift, accel[column], jerk[column], True)
+    v_only, _ = scurve_lanes.sampled(event_t, *rows, column, sample_t, shift, accel[column], jerk[column], False)
 
     shifted = sample_t[None, :] - shift[:, None]
     found = np.stack([np.searchsorted(event_t, sample_t - s, side="right") for s in shift]) - 1

@@ -168,7 +168,8 @@ def follow(event_t: np.ndarray, goals: np.ndarray, accel, jerk) -> tuple[np.ndar
     # numba's import (0.5 s) only where a fit needs it, not in the physics that imports this module
     from .scurve_lanes import follow as follow_lanes
 
-    goals = np.ascontiguousarray(goals, dtype=float)
-    lanes = goals.shape[1]
+    goal_rows = np.ascontiguousarray(np.asarray(goals, dtype=float).T)  # a lane a row
+    lanes = goal_rows.shape[0]
     accel, jerk = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (lanes,))) for x in (accel, jerk))
-    return follow_lanes(np.ascontiguousarray(event_t, dtype=float), goals, accel, jerk)
+    v_rows, a_rows = follow_lanes(np.ascontiguousarray(event_t, dtype=float), goal_rows, accel, jerk)
+    return v_rows.T, a_rows.T  # (K, L) views: each lane's column is contiguous

@@ -102,30 +102,31 @@ def _advance(v0, a0, target, accel, jerk, elapsed):
 
 
 @njit(cache=True)
-def follow(event_t, goals, accel, jerk):
-    """scurve.follow: (velocity, acceleration) at each event (K, L) for goals (K, L); accel, jerk (L,)."""
-    n_events, n_lanes = goals.shape
-    v_out = np.empty((n_events, n_lanes))
-    a_out = np.empty((n_events, n_lanes))
+def follow(event_t, goal_rows, accel, jerk):
+    """scurve.follow lane by lane: (velocity, acceleration) (L, K) at each event for goal_rows (L, K) (a lane a row:
+    read and written in order; a (K, L) layout costs a cache miss per event and array); accel, jerk (L,)."""
+    n_lanes, n_events = goal_rows.shape
+    v_out = np.empty((n_lanes, n_events))
+    a_out = np.empty((n_lanes, n_events))
     for j in range(n_lanes):
         v = 0.0
         a = 0.0
         for k in range(n_events):
-            v_out[k, j] = v
-            a_out[k, j] = a
+            v_out[j, k] = v
+            a_out[j, k] = a
             gap = (event_t[k + 1] - event_t[k]) if k + 1 < n_events else 0.0  # np.diff(event_t, append=event_t[-1])
-            v, a = _advance(v, a, goals[k, j], accel[j], jerk[j], gap)
+            v, a = _advance(v, a, goal_rows[j, k], accel[j], jerk[j], gap)
     return v_out, a_out
 
 
 @njit(cache=True)
-def sampled(event_t, v_event, a_event, goals, column, sample_t, shift, accel, jerk, with_acceleration):
+def sampled(event_t, v_rows, a_rows, goal_rows, row, sample_t, shift, accel, jerk, with_acceleration):
     """Per lane l (L) and sample n (N): the S-curve's (velocity, acceleration) at sample_t[n] - shift[l], from the state
-    at the last event at or before it (column[l] of v_event, a_event, goals (K, U)); 0 before the first event.
+    at the last event at or before it (row[l] of v_rows, a_rows, goal_rows (R, K)); 0 before the first event.
     As drive_shaping did in numpy: advance(state at event k, goal k, elapsed = max(shifted - event_t[k], 0)) x valid.
     Samples in ascending time (else each is searched for) share their event's plan: a plan costs a square root and
     four divisions, the evaluation only multiplications."""
-    n_lanes = len(column)
+    n_lanes = len(row)
     n_samples = len(sample_t)
     v_out = np.empty((n_lanes, n_samples))
     a_out = np.empty((n_lanes, n_samples) if with_acceleration else (0, 0))
@@ -135,7 +136,7 @@ def sampled(event_t, v_event, a_event, goals, column, sample_t, shift, accel, je
             ascending = False
     n_events = len(event_t)
     for lane in range(n_lanes):
-        u = column[lane]
+        u = row[lane]
         k = -1  # the last event at or before the sample
         planned = -2  # the event whose plan is held
         jerk1 = t1 = t2 = jerk3 = t3 = 0.0
@@ -149,10 +150,10 @@ def sampled(event_t, v_event, a_event, goals, column, sample_t, shift, accel, je
             valid = k >= 0
             at = k if valid else 0
             if at != planned:
-                jerk1, t1, t2, jerk3, t3 = _plan(v_event[at, u], a_event[at, u], goals[at, u], accel[lane], jerk[lane])
+                jerk1, t1, t2, jerk3, t3 = _plan(v_rows[u, at], a_rows[u, at], goal_rows[u, at], accel[lane], jerk[lane])
                 planned = at
             elapsed = _max(shifted - event_t[at], 0.0)
-            v, a = _evaluate(v_event[at, u], a_event[at, u], goals[at, u], jerk1, t1, t2, jerk3, t3, elapsed)
+            v, a = _evaluate(v_rows[u, at], a_rows[u, at], goal_rows[u, at], jerk1, t1, t2, jerk3, t3, elapsed)
             scale = 1.0 if valid else 0.0
             v_out[lane, n] = v * scale
             if with_acceleration:
