@@ -144,7 +144,7 @@ def _s_curve_velocity(event_t, goals, sample_t, delay, accel, jerk, acceleration
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     rows = RECURRENCES.follow(event_t, keys[first], goals[:, first], accel[first], jerk[first])[inverse.ravel()]
     # Each lane's S-curve from its last event's state to every sample, compiled (scurve_lanes.sampled; the same bits as
-    # scurve.advance on (lanes x samples) arrays, which cost about 2/3 of a robot-table trial's calibration).
+    # scurve.advance on (lanes x samples) arrays, about half of a robot-table trial's calibration in numpy).
     v, a = scurve_lanes.sampled(RECURRENCES.events, RECURRENCES.velocity, RECURRENCES.acceleration, RECURRENCES.goals, rows,
                                 np.ascontiguousarray(sample_t, dtype=float), delay, accel, jerk, acceleration)
     return (v, a) if acceleration else v

@@ -119,7 +119,7 @@ class FigureModel:
         g = self.geoms
         turn = _rotation_x(q[:, g.rotate])  # (n, G, 3, 3)
         # The 3-term products summed as einsum sums them (j = 0, 1, 2: the same bits), without einsum's per-element
-        # loop over such short axes: a third of a robot-table trial's calibration went to these three (robot-cpu-6).
+        # loop over such short axes: a fifth of a robot-table trial's calibration once its drive fit was compiled (robot-cpu-6).
         centre = g.axis_origin[None] + _sum_over_j(turn[..., :, j] * g.offset[None, :, None, j] for j in range(3))
         centre[..., 0] += q[:, g.slide]
         return centre, _sum_over_j(turn[..., :, j, None] * g.mat[None, :, None, j, :] for j in range(3))

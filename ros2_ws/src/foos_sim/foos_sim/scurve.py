@@ -163,8 +163,8 @@ def advance(v0, a0, target, accel, jerk, elapsed) -> tuple[np.ndarray, np.ndarra
 def follow(event_t: np.ndarray, goals: np.ndarray, accel, jerk) -> tuple[np.ndarray, np.ndarray]:
     """The S-curve's (velocity, acceleration) at each event (K, L), for goals (K, L) that each hold from their
     event to the next, starting from rest before the first (a recurrence over the events only): advance() from event
-    to event, compiled lane by lane (scurve_lanes; bit-identical). A numpy pass per event cost 60 s of a robot-table
-    calibration with 20 ms commands, more with 2 ms ones."""
+    to event, compiled lane by lane (scurve_lanes; bit-identical). A numpy pass per event was a quarter of a profiled robot-table
+    calibration with 20 ms commands (calibration-2026-11-28-robot-cpu-6.md)."""
     # numba's import (0.5 s) only where a fit needs it, not in the physics that imports this module
     from .scurve_lanes import follow as follow_lanes
 
