@@ -15,6 +15,7 @@ from foos_calibration.figure_contacts import (
     JointTrack,
     PosedFigures,
     RodLines,
+    _rotation_x,
     _spread,
     for_game,
 )
@@ -103,6 +104,28 @@ def test_a_figure_pose_puts_a_touching_ball_at_zero_gap():
     assert abs(gap[0]) < 1e-9 and abs(gap[1]) < 1e-9
     assert gap[2] > 0.01
     assert 0.05 < figures.reach_y < 0.09  # a swinging figure reaches this far from its rod line
+
+
+def test_posed_gaps_are_the_einsum_formulas_bits():
+    """FigureModel.poses and distance sum their 3-term products without np.einsum (robot-cpu-6): the same bits."""
+    figures = FigureModel(load_params())
+    rng = np.random.default_rng(4)
+    q = np.zeros((4000, len(JOINT_NAMES)))
+    q[:, 0::2], q[:, 1::2] = rng.uniform(-0.12, 0.12, (4000, 8)), rng.uniform(-20.0, 20.0, (4000, 8))
+    xy = np.stack([rng.uniform(-0.6, 0.6, 4000), rng.uniform(-0.35, 0.35, 4000)], axis=1)
+    g = figures.geoms
+    turn = _rotation_x(q[:, g.rotate])
+    centre = g.axis_origin[None] + np.einsum("ngij,gj->ngi", turn, g.offset)
+    centre[..., 0] += q[:, g.slide]
+    mat = np.einsum("ngij,gjk->ngik", turn, g.mat)
+    ball = np.concatenate([xy, np.full((len(xy), 1), figures.ball_radius)], axis=1)
+    local = np.einsum("ngji,ngj->ngi", mat, ball[:, None, :] - centre)
+    outside = np.abs(local) - g.half[None]
+    gap = np.linalg.norm(np.maximum(outside, 0.0), axis=-1) + np.minimum(outside.max(axis=-1), 0.0)
+    posed_centre, posed_mat = figures.poses(q)
+    assert np.array_equal(posed_centre.view(np.int64), centre.view(np.int64))
+    assert np.array_equal(posed_mat.view(np.int64), mat.view(np.int64))
+    assert np.array_equal(figures.distance(xy, q).view(np.int64), (gap.min(axis=1) - figures.ball_radius).view(np.int64))
 
 
 def test_contacts_with_joint_states_are_found_and_no_segment_runs_through_one(game, posed):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from foos_sim import scurve
+from foos_sim import scurve, scurve_lanes
 
 
 def new_game() -> None:
@@ -98,23 +98,36 @@ def _event_index(event_t: np.ndarray, sample_t: np.ndarray, shift: np.ndarray) -
 
 class _Recurrences:
     """The S-curves' states at the events of lanes already followed (a fit asks for the same lanes again: a
-    component held while another is swept, the same candidates in the next sweep and subset), by lane key."""
+    component held while another is swept, the same candidates in the next sweep and subset), by lane key. A lane a
+    row of `velocity`, `acceleration` and `goals` (R, K), so that a call hands the compiled evaluation row numbers,
+    not (K, lanes) copies (two of 60000 x 600 floats per call with 2 ms commands)."""
 
     def __init__(self):
         self.events = None
-        self.states: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self.rows: dict[tuple, int] = {}
+        self.velocity = self.acceleration = self.goals = np.empty((0, 0))
 
-    def follow(self, event_t, keys, goals, accel, jerk) -> tuple[np.ndarray, np.ndarray]:
+    def follow(self, event_t, keys, goals, accel, jerk) -> np.ndarray:
+        """(L,) each lane's row, following the lanes not seen before (goals (K, L); accel, jerk (L,))."""
         if self.events is None or len(self.events) != len(event_t) or not np.array_equal(self.events, event_t):
-            self.events, self.states = event_t.copy(), {}
-        rows = [tuple(k) for k in keys.tolist()]
-        missing = [i for i, row in enumerate(rows) if row not in self.states]
+            self.events, self.rows = event_t.copy(), {}
+            self.velocity = self.acceleration = self.goals = np.empty((0, len(event_t)))
+        keyed = [tuple(k) for k in keys.tolist()]
+        missing = [i for i, key in enumerate(keyed) if key not in self.rows]
         if missing:
             v, a = scurve.follow(event_t, goals[:, missing], accel[missing], jerk[missing])
+            start = len(self.rows)
+            if start + len(missing) > len(self.velocity):  # grown by half at least (copies amortised, memory bounded)
+                capacity = max(len(self.velocity) * 3 // 2, start + len(missing), 64)
+                self.velocity, self.acceleration, self.goals = (
+                    np.concatenate([x[:start], np.empty((capacity - start, len(event_t)))])
+                    for x in (self.velocity, self.acceleration, self.goals))
+            self.velocity[start:start + len(missing)] = v.T
+            self.acceleration[start:start + len(missing)] = a.T
+            self.goals[start:start + len(missing)] = goals[:, missing].T
             for j, i in enumerate(missing):
-                self.states[rows[i]] = (v[:, j], a[:, j])
-        return (np.stack([self.states[row][0] for row in rows], axis=1),
-                np.stack([self.states[row][1] for row in rows], axis=1))
+                self.rows[keyed[i]] = start + j
+        return np.array([self.rows[key] for key in keyed], dtype=np.int64)
 
 
 RECURRENCES = _Recurrences()
@@ -125,18 +138,16 @@ def _s_curve_velocity(event_t, goals, sample_t, delay, accel, jerk, acceleration
     # Lanes with the same goals and limits (candidates of a latency, which only shifts the samples) share one
     # recurrence over the events: the goals compared through a fixed random projection.
     signature = np.random.default_rng(0).standard_normal(len(goals)) @ goals
-    keys = np.stack([signature, np.broadcast_to(accel, signature.shape), np.broadcast_to(jerk, signature.shape)], axis=1)
+    lanes = len(signature)
+    accel, jerk, delay = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (lanes,))) for x in (accel, jerk, delay))
+    keys = np.stack([signature, accel, jerk], axis=1)
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    unique_goals = goals[:, first]
-    v_event, a_event = RECURRENCES.follow(event_t, keys[first], unique_goals, np.broadcast_to(accel, signature.shape)[first],
-                                           np.broadcast_to(jerk, signature.shape)[first])
-    shifted, k, valid = _event_index(event_t, sample_t, np.broadcast_to(delay, signature.shape))
-    lanes = inverse[:, None]
-    elapsed = np.maximum(shifted - event_t[k], 0.0)
-    v, a, _ = scurve.advance(v_event[k, lanes], a_event[k, lanes], unique_goals[k, lanes],
-                             np.broadcast_to(accel, signature.shape)[:, None], np.broadcast_to(jerk, signature.shape)[:, None], elapsed)
-    return (v * valid, a * valid) if acceleration else v * valid
+    rows = RECURRENCES.follow(event_t, keys[first], goals[:, first], accel[first], jerk[first])[inverse.ravel()]
+    # Each lane's S-curve from its last event's state to every sample, compiled (scurve_lanes.sampled; the same bits as
+    # scurve.advance on (lanes x samples) arrays, about half of a robot-table trial's calibration in numpy).
+    v, a = scurve_lanes.sampled(RECURRENCES.events, RECURRENCES.velocity, RECURRENCES.acceleration, RECURRENCES.goals, rows,
+                                np.ascontiguousarray(sample_t, dtype=float), delay, accel, jerk, acceleration)
+    return (v, a) if acceleration else v
 
 
 def shaped_velocity(event_t, commands, sample_t, delay, speed, accel, lag, jerk=None, acceleration=False):

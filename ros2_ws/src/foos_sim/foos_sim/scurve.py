@@ -162,12 +162,14 @@ def advance(v0, a0, target, accel, jerk, elapsed) -> tuple[np.ndarray, np.ndarra
 
 def follow(event_t: np.ndarray, goals: np.ndarray, accel, jerk) -> tuple[np.ndarray, np.ndarray]:
     """The S-curve's (velocity, acceleration) at each event (K, L), for goals (K, L) that each hold from their
-    event to the next, starting from rest before the first (a recurrence over the events only)."""
-    v = np.zeros(goals.shape[1])
-    a = np.zeros(goals.shape[1])
-    v_out, a_out = np.empty_like(goals), np.empty_like(goals)
-    gaps = np.diff(event_t, append=event_t[-1])
-    for k in range(len(event_t)):
-        v_out[k], a_out[k] = v, a
-        v, a, _ = advance(v, a, goals[k], accel, jerk, gaps[k])
-    return v_out, a_out
+    event to the next, starting from rest before the first (a recurrence over the events only): advance() from event
+    to event, compiled lane by lane (scurve_lanes; bit-identical). A numpy pass per event was a quarter of a profiled robot-table
+    calibration with 20 ms commands (calibration-2026-11-28-robot-cpu-6.md)."""
+    # numba's import (0.5 s) only where a fit needs it, not in the physics that imports this module
+    from .scurve_lanes import follow as follow_lanes
+
+    goal_rows = np.ascontiguousarray(np.asarray(goals, dtype=float).T)  # a lane a row
+    lanes = goal_rows.shape[0]
+    accel, jerk = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (lanes,))) for x in (accel, jerk))
+    v_rows, a_rows = follow_lanes(np.ascontiguousarray(event_t, dtype=float), goal_rows, accel, jerk)
+    return v_rows.T, a_rows.T  # (K, L) views: each lane's column is contiguous
