@@ -3,7 +3,8 @@ opponent, camera loop, the 100 episodes of seed 7):
 
     python probes.py constant     # fixed corrections: does any one vector move the win rate?
     python probes.py lift         # a rule: lift the own rods that stand between the ball and the away goal
-    python probes.py stagnant     # zero corrections: where the stagnant episodes leave the ball
+    python probes.py stagnant [BASE]  # zero corrections (on the residual base BASE, default scripted): where the
+                                      # stagnant episodes leave the ball
     python probes.py drift DIR    # the deterministic corrections' size in DIR/checkpoints over training
 
 Run in a shell that sourced scripts/env.sh.
@@ -27,8 +28,8 @@ from foos_policy.scripted import own_rod_geometry
 SEEDS = episode_seeds(7, 100)
 
 
-def residual_env():
-    return make_env("hardened", "scripted", None, params_file=str(ROBOT_PARAMS_FILE), action="residual")
+def residual_env(base: str = "scripted"):
+    return make_env("hardened", "scripted", None, params_file=str(ROBOT_PARAMS_FILE), action="residual", residual_base=base)
 
 
 def report(name: str, act, env) -> None:
@@ -76,8 +77,8 @@ def lift() -> None:
         report(name, act, env)
 
 
-def stagnant() -> None:
-    env = residual_env()
+def stagnant(base: str = "scripted") -> None:
+    env = residual_env(base)
     geometry = own_rod_geometry(env.sim.params)
     home_y = np.array([geometry[rod].y for rod in RODS])
     away_y = -home_y
@@ -133,7 +134,9 @@ if __name__ == "__main__":
     probe = sys.argv[1] if len(sys.argv) > 1 else ""
     if probe == "drift" and len(sys.argv) == 3:
         drift(sys.argv[2])
+    elif probe == "stagnant" and len(sys.argv) == 3:
+        stagnant(sys.argv[2])
     elif probe in ("constant", "lift", "stagnant"):
         globals()[probe]()
     else:
-        sys.exit("usage: probes.py constant | lift | stagnant | drift RUN_DIR")
+        sys.exit("usage: probes.py constant | lift | stagnant [BASE] | drift RUN_DIR")
