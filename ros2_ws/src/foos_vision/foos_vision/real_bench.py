@@ -324,6 +324,22 @@ def find_stills(clip: Clip, params_file: Optional[str] = None, verifier: Optiona
 
 
 # --- scoring -------------------------------------------------------------------------------------------------------
+def judge_frame(balls: list, seen: Optional[tuple[float, float]],
+                diameter: float) -> tuple[str, Optional[float], Optional[tuple[float, float]]]:
+    """One labelled frame's verdict, the one rule of score and per_frame_lines: `found` (the pick within one diameter
+    of the nearest label), `near` (within two: neither found nor false), `wrong` (farther, or a pick in a frame with no
+    ball), `missed` (no pick with a ball labelled), `none` (no pick, no ball); with the pick's distance (px) and the
+    label's centre it is judged against (the nearest, or the first where there is no pick)."""
+    if not balls:
+        return ("wrong" if seen is not None else "none"), None, None
+    if seen is None:
+        return "missed", None, (balls[0][0], balls[0][1])
+    cx, cy, _ = min(balls, key=lambda b: math.hypot(seen[0] - b[0], seen[1] - b[1]))
+    error = math.hypot(seen[0] - cx, seen[1] - cy)
+    verdict = "found" if error <= diameter else "near" if error <= 2 * diameter else "wrong"
+    return verdict, error, (cx, cy)
+
+
 def score(clip: Clip, detections: dict[int, tuple[float, float]], frames: int, mode: str) -> ClipResult:
     if clip.labels is not None:
         widths = [w for balls in clip.labels.values() for _, _, w in balls]
@@ -334,19 +350,12 @@ def score(clip: Clip, detections: dict[int, tuple[float, float]], frames: int, m
         errors = []
         for k, balls in clip.labels.items():
             seen = detections.get(k)
-            if balls:
-                scored += 1
-            if seen is None:
-                continue
-            counted += 1
-            if not balls:
-                false += 1
-                continue
-            error = min(math.hypot(seen[0] - cx, seen[1] - cy) for cx, cy, _ in balls)
-            found += error <= diameter
-            if error > 2 * diameter:
-                false += 1
-            else:
+            scored += bool(balls)
+            counted += seen is not None
+            verdict, error, _ = judge_frame(balls, seen, diameter)
+            found += verdict == "found"
+            false += verdict == "wrong"
+            if verdict in ("found", "near"):
                 errors.append(error)
         result = ClipResult(clip.name, mode, frames, scored, found, counted, false, errors)
         result.notes.append(f"ball diameter {diameter:.1f} px (median label width)")
@@ -360,9 +369,7 @@ def score(clip: Clip, detections: dict[int, tuple[float, float]], frames: int, m
 
 def per_frame_lines(clip: Clip, detections: dict[int, tuple[float, float]], frames: int,
                     candidates: Optional[dict[int, list]] = None) -> list[str]:
-    """One line per scored frame, in score's terms: `found` (the pick within one diameter of the label), `near`
-    (within two: neither found nor false), `wrong` (farther, or a pick in a frame with no ball), `missed` (no pick
-    with the ball labelled), `none` (no pick, no ball); the label's centre, the pick and its distance (px); and where
+    """One line per scored frame, judged as score judges it (judge_frame); the label's centre, the pick and its distance (px); and where
     the pick is not `found`, the ball's best candidate (the best-scored within one diameter of the label: its rank
     among the frame's candidates from 1, its cue and its score), or `no candidate` within a diameter. A visibility
     list has no positions: a frame is then found, missed, wrong or none by the list alone."""
@@ -382,15 +389,12 @@ def per_frame_lines(clip: Clip, detections: dict[int, tuple[float, float]], fram
     for k, balls in clip.labels.items():
         seen = detections.get(k)
         pick = f"; pick ({seen[0]:.0f}, {seen[1]:.0f})" if seen else "; no pick"
-        if not balls:
-            lines.append(f"{name(k)}: {'wrong' if seen else 'none'}: no ball labelled{pick}")
+        verdict, error, label = judge_frame(balls, seen, diameter)
+        if label is None:
+            lines.append(f"{name(k)}: {verdict}: no ball labelled{pick}")
             continue
-        cx, cy, _ = min(balls, key=lambda b: math.hypot(seen[0] - b[0], seen[1] - b[1]) if seen else 0.0)
-        error = math.hypot(seen[0] - cx, seen[1] - cy) if seen else None
-        if error is None:
-            verdict = "missed"
-        else:
-            verdict = "found" if error <= diameter else "near" if error <= 2 * diameter else "wrong"
+        cx, cy = label
+        if error is not None:
             pick += f" {error:.1f} px off"
         line = f"{name(k)}: {verdict}: label ({cx:.0f}, {cy:.0f}){pick}"
         if verdict != "found" and candidates is not None:
