@@ -26,17 +26,6 @@ def _commands(rng, events: int, lanes: int) -> tuple[np.ndarray, np.ndarray, np.
     return event_t, goals, accel, jerk
 
 
-def _numpy_follow(event_t, goals, accel, jerk):
-    """scurve.follow as it was: advance() from event to event, one numpy pass over the lanes per event."""
-    v, a = np.zeros(goals.shape[1]), np.zeros(goals.shape[1])
-    v_out, a_out = np.empty_like(goals), np.empty_like(goals)
-    gaps = np.diff(event_t, append=event_t[-1])
-    for k in range(len(event_t)):
-        v_out[k], a_out[k] = v, a
-        v, a, _ = scurve.advance(v, a, goals[k], accel, jerk, gaps[k])
-    return v_out, a_out
-
-
 def _same_bits(x: np.ndarray, y: np.ndarray) -> bool:
     return x.shape == y.shape and np.array_equal(x.view(np.int64), y.view(np.int64))
 
@@ -46,7 +35,7 @@ def test_follow_gives_the_numpy_recurrences_bits(seed):
     rng = np.random.default_rng(seed)
     event_t, goals, accel, jerk = _commands(rng, 1500, 24)
     v, a = scurve.follow(event_t, goals, accel, jerk)
-    v_ref, a_ref = _numpy_follow(event_t, goals, accel, jerk)
+    v_ref, a_ref = scurve.follow_numpy(event_t, goals, accel, jerk)
     assert _same_bits(v, v_ref) and _same_bits(a, a_ref)
     assert np.abs(v).max() > 100.0  # the lanes moved at rotation speeds (not a trivially equal rest)
 

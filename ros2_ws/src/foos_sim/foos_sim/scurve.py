@@ -173,3 +173,16 @@ def follow(event_t: np.ndarray, goals: np.ndarray, accel, jerk) -> tuple[np.ndar
     accel, jerk = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (lanes,))) for x in (accel, jerk))
     v_rows, a_rows = follow_lanes(np.ascontiguousarray(event_t, dtype=float), goal_rows, accel, jerk)
     return v_rows.T, a_rows.T  # (K, L) views: each lane's column is contiguous
+
+
+def follow_numpy(event_t: np.ndarray, goals: np.ndarray, accel, jerk) -> tuple[np.ndarray, np.ndarray]:
+    """follow() in numpy, as it was before it was compiled: advance() from event to event, one numpy pass over the
+    lanes per event. The reference whose bits scurve_lanes.follow must give (tests/foos_sim/test_scurve_lanes.py) and
+    the "before" of `bench_calibration --lanes`; too slow for a fit (a pass per command event)."""
+    v, a = np.zeros(goals.shape[1]), np.zeros(goals.shape[1])
+    v_out, a_out = np.empty_like(goals), np.empty_like(goals)
+    gaps = np.diff(event_t, append=event_t[-1])
+    for k in range(len(event_t)):
+        v_out[k], a_out[k] = v, a
+        v, a, _ = advance(v, a, goals[k], accel, jerk, gaps[k])
+    return v_out, a_out
