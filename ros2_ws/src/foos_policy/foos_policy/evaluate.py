@@ -72,7 +72,8 @@ def play(args, params_file, seeds: list[int]) -> tuple[list[dict], dict]:
     policy = make_policy(args.policy, env.sim.params, env.sim.command_limits, seed=args.seed)
     start = time.time()
     results = run_episodes(env, policy.predict, seeds, progress=not args.no_progress,
-                           desc=f"{policy.name} {args.reset}/{args.opponent} {Path(params_file).stem if params_file else 'nominal'}")
+                           desc=f"{policy.name} {args.reset}/{args.opponent} {Path(params_file).stem if params_file else 'nominal'}",
+                           new_episode=policy.reset)
     return results, {"params_file": params_file, "physics": env.sim.physics, "wall_s": round(time.time() - start, 1),
                      "opponent_delay_s": env.opponent_delay_steps * env.dt, "camera_latency_s": env.config.camera_latency,
                      "camera_noise_m": env.config.camera_noise, "control_rate_hz": 1.0 / env.dt, "max_steps": env.config.max_steps}

@@ -67,10 +67,14 @@ def episode_seeds(seed: int, episodes: int) -> list[int]:
 
 
 def run_episodes(env, act: Callable[[np.ndarray], np.ndarray], seeds: list[int], progress: bool = False,
-                 desc: str = "evaluate") -> list[dict]:
+                 desc: str = "evaluate", new_episode: Optional[Callable[[], None]] = None) -> list[dict]:
+    """One episode per seed, `act` choosing each control step's action; `new_episode` (a policy's reset) is called
+    before each."""
     results = []
     for s in tqdm(seeds, desc=desc, unit="ep", disable=not progress):
         obs, _ = env.reset(seed=s)
+        if new_episode is not None:
+            new_episode()
         while True:
             obs, _, terminated, truncated, info = env.step(act(obs))
             if terminated or truncated:

@@ -14,6 +14,7 @@ from foos_core.table_params import load_params
 from foos_sim import command_limits as params_command_limits
 
 from .actions import ScriptedResidual, action_map, action_mode_of
+from .decisions import DECISION_PERIOD_DEFAULT, HeldDecision
 from .observation import ACTION_LIMIT, OBS_SCALE, observes_scaled, scaled_observation
 from .scripted import ScriptedPolicy
 
@@ -108,6 +109,9 @@ class Policy:
     def predict(self, obs: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
+    def reset(self) -> None:
+        """A new episode begins: forget anything held from the last one (a held decision)."""
+
 
 class ZeroPolicy(Policy):
     name = "zero"
@@ -172,10 +176,22 @@ class ModelPolicy(Policy):
             self.action_map = action_map(self.action_mode, *_table(params, command_limits), self.residual_base)
         except ValueError as exc:
             raise PolicyError(f"{self.path}: {exc}") from None
+        # a model trained with `train --decision-period K` chose an action every K control steps and held it
+        # (foos_policy.decisions); older models carry none and chose every step
+        try:
+            self.decision = HeldDecision(getattr(self.model, "decision_period", DECISION_PERIOD_DEFAULT))
+        except ValueError as exc:
+            raise PolicyError(f"{self.path}: {exc}") from None
+        self.held = None
+
+    def reset(self) -> None:
+        self.decision.reset()
 
     def predict(self, obs):
         obs = np.asarray(obs, np.float32)
-        action, _ = self.model.predict(scaled_observation(obs) if self.observes_scaled else obs, deterministic=True)
+        if self.decision.due():
+            self.held, _ = self.model.predict(scaled_observation(obs) if self.observes_scaled else obs, deterministic=True)
+        action = self.held
         if self.action_map is not None:
             return self.action_map.velocity_action(obs, action)
         return np.clip(action, -ACTION_LIMIT, ACTION_LIMIT).astype(np.float32)

@@ -16,6 +16,7 @@ from tqdm import tqdm
 from .actions import ACTION_MODES
 from .commands import add_task_arguments, check_task_arguments, run_command, write_json
 from .curriculum import stage_at, stages
+from .decisions import DecisionPeriod
 from .env import make_env
 from .metrics import MetricsWriter, plot_metrics, summarize_tail
 from .observation import OBS_SCALE, OBS_SCALED_BOUND, OBS_SIZE, scaled_observation
@@ -92,6 +93,11 @@ def parse_args(argv=None) -> argparse.Namespace:
                         "pull corrections (--action residual) toward zero, the scripted controller's own play; at 0.05 "
                         "one SAC seed's corrections stayed at 0.7 of their bounds (docs/measurements/"
                         "policy-2026-11-28-residual.md) (default 0)")
+    p.add_argument("--decision-period", type=int, default=1, metavar="K",
+                   help="control steps (20 ms each) the learner's action is held for: the learner decides every K steps, "
+                        "its reward the sum over them, --gamma and --steps per decision, while the scripted base under "
+                        "corrections or the controller under position targets still acts every step (foos_policy.decisions). "
+                        "Saved with the model, so evaluate and policy_node hold its actions alike (default 1)")
     p.add_argument("--steps", type=int, default=20000,
                    help="environment steps to train (default 20000; SBX SAC learns at ~330 steps/s on a free core)")
     add_task_arguments(p)
@@ -133,6 +139,8 @@ def parse_args(argv=None) -> argparse.Namespace:
         p.error("--n-envs, --train-freq and --gradient-steps must be positive")
     if not 0 < args.gamma <= 1:
         p.error(f"--gamma must be in (0, 1], got {args.gamma}")
+    if args.decision_period < 1:
+        p.error(f"--decision-period must be at least 1 control step, got {args.decision_period}")
     if args.residual_base != "scripted" and args.action != "residual":
         p.error(f"--residual-base {args.residual_base} needs --action residual")
     check_task_arguments(p, args)
@@ -292,6 +300,8 @@ def train(args) -> dict:
                            residual_base=args.residual_base, action_cost=args.action_cost)
             if args.observation == "scaled":
                 env = ScaledObservation(env)
+            if args.decision_period > 1:
+                env = DecisionPeriod(env, args.decision_period)
             env.reset(seed=args.seed * 1000 + rank)
             return env
         return make
@@ -303,6 +313,7 @@ def train(args) -> dict:
         model.observation_scale = OBS_SCALE.tolist()
     if args.action == "residual":  # saved with the model: what its corrections act on (ModelPolicy reads it back)
         model.residual_base = args.residual_base
+    model.decision_period = args.decision_period  # saved with the model: ModelPolicy holds its actions as long
     metrics = MetricsWriter(out / "metrics.csv")
     callbacks = make_callbacks(metrics, args.steps, not args.no_progress, out / "checkpoints", args.checkpoint_every, name, args.n_envs,
                                args.time_limit * 60.0, curriculum)
@@ -331,6 +342,9 @@ def train(args) -> dict:
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
         "params_file": args.params_file, "action": args.action, "observation": args.observation,
         "residual_base": args.residual_base if args.action == "residual" else None,
+        "decision_period": args.decision_period,
+        "control_steps_done": sum(getattr(e, "control_steps", 0) for e in env.envs) if args.decision_period > 1
+        else int(model.num_timesteps),
         "ent_coef": args.ent_coef, "action_cost": args.action_cost, "gamma": args.gamma, "actor_start": args.actor_start,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
