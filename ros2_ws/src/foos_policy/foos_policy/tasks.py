@@ -204,6 +204,10 @@ class FrozenPolicyOpponent:
     def __init__(self, path: str | Path, params: dict, command_limits):
         self.policy = ModelPolicy(path, params, command_limits)
 
+    def clear(self) -> None:
+        """A new episode: a decision held from the last one is dropped (foos_policy.decisions)."""
+        self.policy.reset()
+
     def act(self, obs: np.ndarray) -> np.ndarray:
         return self.policy.predict(obs)
 
@@ -223,6 +227,8 @@ class ReactionDelay:
     def clear(self) -> None:
         """Forget what was seen: a new episode starts from what it shows."""
         self.seen.clear()
+        if hasattr(self.opponent, "clear"):
+            self.opponent.clear()
 
     def act(self, obs: np.ndarray) -> Optional[np.ndarray]:
         self.seen.append(np.array(obs))
