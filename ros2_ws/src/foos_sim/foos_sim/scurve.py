@@ -13,7 +13,8 @@ reaches if it just brought its acceleration to zero is v0 + a0 |a0| / 2J):
     ap^2 = J G + a0^2 / 2 with no plateau; else ap = A and the plateau takes the rest at A.
 
 Everything is elementwise numpy, so one call plans thousands of lanes of a calibration fit; the same formulas compiled
-one lane at a time (scurve_lanes) follow the calibration's long recurrences and give the fast physics its setpoints. A plan is exact: evaluating it at any time gives the profile's state there, and planning
+one lane at a time (scurve_lanes) follow the calibration's long recurrences and give the fast physics its setpoints.
+A plan is exact: evaluating it at any time gives the profile's state there, and planning
 again from that state towards the same target gives the same trajectory (no drift from re-planning).
 
 Why not `ruckig` (PyPI 0.19.4, whose velocity interface computes the same time-optimal profiles): it steps
@@ -24,6 +25,7 @@ times or vectorised over a calibration fit's lanes. A velocity target needs only
 from __future__ import annotations
 
 from dataclasses import dataclass
+
 import numpy as np
 
 SETTLED = 1e-9  # velocity (m/s or rad/s) below which a drive is at its target: no motion is planned
