@@ -13,7 +13,7 @@ from foos_core.table_params import (
     ParamsError,
     load_params,
 )
-from foos_sim import scurve
+from foos_sim import scurve, scurve_lanes
 from foos_sim.drive_limits import DriveLimits, Servo, predict_positions
 from foos_sim.drive_profiles import BLOCK, ProfileDrives, profile_limits
 from foos_sim.simulation import TableSimulation
@@ -225,7 +225,35 @@ def test_one_lanes_velocity_and_state_match_the_closed_form():
     for _ in range(50):
         v0, a0, target = rng.uniform(-300, 300), rng.uniform(-4000, 4000), rng.uniform(-314, 314)
         profile = scurve.plan(np.float64(v0), np.float64(a0), np.float64(target), 9425.0, 36650.0)
+        # The fast physics' packed plan (ProfileDrives): its compiled state and velocity regroup scurve.evaluate's
+        # closed form.
+        packed = _packed(profile)
         for elapsed in (0.0, 0.003, 0.05, 0.5):
             v, a, _ = scurve.evaluate(profile, elapsed)
-            v_state, a_state = scurve.state(profile, elapsed)
-            np.testing.assert_allclose([scurve.velocity(profile, elapsed), v_state, a_state], [v, v, a], rtol=1e-12, atol=1e-9)
+            v_state, a_state = scurve_lanes.state(packed, elapsed)
+            v_block = np.empty((1, 1))
+            scurve_lanes.velocities(packed, elapsed, np.zeros(1), 1.0, np.zeros(1), v_block, 0, 1)
+            np.testing.assert_allclose([v_block[0, 0], v_state[0], a_state[0]], [v, v, a], rtol=1e-12, atol=1e-9)
+
+
+def _packed(profile: scurve.Profile) -> np.ndarray:
+    """A Profile's lanes as ProfileDrives packs them (scurve_lanes' rows)."""
+    fields = (profile.v0, profile.a0, profile.jerk1, profile.t1, profile.t2, profile.jerk3, profile.t3, profile.target)
+    return np.array([np.atleast_1d(np.asarray(f, dtype=float)) for f in fields])
+
+
+def test_a_compiled_replan_is_scurve_plan_from_the_plans_state():
+    # ProfileDrives re-plans in place (scurve_lanes.replan): from the packed plan's state (scurve_lanes.state),
+    # scurve.plan's phases bit for bit, and the time until the last lane settles.
+    rng = np.random.default_rng(6)
+    accel, jerk = np.array([9425.0, 104.0] * 8), np.array([36650.0, 406.0] * 8)
+    speed = np.array([314.159, 3.48] * 8)
+    profile = scurve.plan(np.zeros(16), np.zeros(16), rng.uniform(-1, 1, 16) * speed, accel, jerk)
+    packed = _packed(profile)
+    for elapsed in (0.0, 0.0013, 0.02, 0.07, 1.0):
+        goal = rng.choice([-1.0, 0.0, 0.4, 1.0], 16) * speed
+        v, a = scurve_lanes.state(packed, elapsed)
+        np.testing.assert_allclose(v, scurve.evaluate(profile, elapsed)[0], rtol=1e-12, atol=1e-9)
+        profile = scurve.plan(v, a, goal, accel, jerk)
+        longest = scurve_lanes.replan(packed, elapsed, goal, np.stack([accel, jerk]))
+        assert np.array_equal(packed, _packed(profile)) and longest == float(profile.duration.max())

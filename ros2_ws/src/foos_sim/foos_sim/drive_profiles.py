@@ -85,14 +85,21 @@ class ProfileDrives:
         # Without dead time a drive acts on the last command at once: no history to search (every step counts).
         self._instant = not bool(np.any(self.delay > 0.0))
         self._latest = np.zeros(len(JOINT_NAMES))
-        self._steps = (np.arange(BLOCK) + 0.5)[:, None]
+        self._steps = np.arange(BLOCK) + 0.5
+        # numba's import (about 0.5 s) only in a process that has jerk-limited drives (the servo table's need none).
+        from . import scurve_lanes
+        self._lanes = scurve_lanes
+        self._limits = np.ascontiguousarray(np.stack([self.accel, self.jerk]), dtype=float)
+        self._plan = np.zeros((scurve_lanes.PLAN_ROWS, len(JOINT_NAMES)))  # the current plan, packed (scurve_lanes)
+        self._goal = np.zeros(len(JOINT_NAMES))
         self.reset()
 
     def reset(self) -> None:
         self.history.reset()
         self._latest[:] = 0.0
-        zero = np.zeros(len(JOINT_NAMES))
-        self.plan = scurve.plan(zero, zero, zero, self.accel, self.jerk)
+        self._plan[:] = 0.0
+        self._lanes.replan(self._plan, 0.0, np.zeros(len(JOINT_NAMES)), self._limits)  # at rest, holding 0
+        self._target = self._plan[self._lanes.TARGET].tolist()
         self.plan_time = 0.0
         self.settled_at = 0.0  # when every drive holds its target
         self.next_due = np.inf  # when a received command next starts acting
@@ -107,18 +114,28 @@ class ProfileDrives:
             self.history.receive(time, team, command)
         self.next_due = min(self.next_due, time + self._min_delay)
 
+    @property
+    def plan(self) -> scurve.Profile:
+        """The current plan as scurve.plan gives it (for scurve.evaluate; the step uses the packed rows)."""
+        rows = self._plan.copy()
+        lanes = self._lanes
+        return scurve.Profile(v0=rows[lanes.V0], a0=rows[lanes.A0], jerk1=rows[lanes.JERK1], t1=rows[lanes.T1],
+                              t2=rows[lanes.T2], jerk3=rows[lanes.JERK3], t3=rows[lanes.T3], target=rows[lanes.TARGET])
+
     def state(self, time: float) -> tuple[np.ndarray, np.ndarray]:
         """The setpoints' velocity and acceleration at `time` (on the current plan)."""
-        return scurve.state(self.plan, time - self.plan_time)
+        velocity, acceleration = self._lanes.state(self._plan, time - self.plan_time)
+        return velocity, acceleration
 
     def _update(self, time: float) -> None:
         commands = self._latest if self._instant else self.history.delayed_commands(time)
-        goal = np.minimum(np.maximum(commands, self._negative_speed), self.speed)
-        if goal.tolist() != self.plan.target.tolist():  # (16 finite floats: cheaper as lists than np.array_equal)
-            v, a = self.state(time)
-            self.plan = scurve.plan(v, a, goal, self.accel, self.jerk)
+        goal = np.minimum(np.maximum(commands, self._negative_speed), self.speed, out=self._goal)
+        targets = goal.tolist()
+        if targets != self._target:  # (16 finite floats: cheaper as lists than np.array_equal)
+            longest = self._lanes.replan(self._plan, time - self.plan_time, goal, self._limits)
+            self._target = targets
             self.plan_time = time
-            self.settled_at = time + float(self.plan.duration.max())
+            self.settled_at = time + longest
             self._block = None
             self._held = False
         self.next_due = np.inf if self._instant else self.history.next_due(time)
@@ -128,7 +145,9 @@ class ProfileDrives:
         from targets()' block."""
         if time >= self.next_due - _TIME_EPS:
             self._update(time)
-        return scurve.velocity(self.plan, time - self.plan_time + middles[:, None] + self.lead)
+        out = np.empty((len(middles), len(self.lead)))
+        self._lanes.velocities(self._plan, time - self.plan_time, middles, 1.0, self.lead, out, 0, len(middles))
+        return out
 
     def targets(self, time: float, h: float) -> Optional[np.ndarray]:
         if time >= self.next_due - _TIME_EPS:
@@ -137,7 +156,7 @@ class ProfileDrives:
             if self._held:
                 return None
             self._held = True
-            return self.plan.target
+            return self._plan[self._lanes.TARGET].copy()
         block = self._block
         if block is not None and h == self._block_h:
             k = (time - self._block_t0) / h
@@ -154,6 +173,6 @@ class ProfileDrives:
     def _evaluate_rows(self, end: int) -> None:
         """The block's setpoints from its evaluated rows up to `end` (at most BLOCK)."""
         start, end = self._block_rows, min(end, BLOCK)
-        self._block[start:end] = scurve.velocity(self.plan, self._block_t0 - self.plan_time + self._steps[start:end] * self._block_h
-                                                 + self.lead)
+        self._lanes.velocities(self._plan, self._block_t0 - self.plan_time, self._steps, self._block_h, self.lead, self._block,
+                               start, end)
         self._block_rows = end

@@ -122,23 +122,27 @@ class FollowingDrives:
         self._ctrl, self._qvel = data.ctrl, _view(data.qvel, self._dofs)
         self._moved_force = np.zeros(model.nu)  # what starting at the target took, for efforts()
         self._moved = False
-        self._change, self._within = np.zeros(model.nu), np.zeros(model.nu, dtype=bool)
+        # The rule of update() runs compiled (foos_sim.following; numba imported only with these drives).
+        from . import following
+        self._follow = following.follow
+        # Per drive (following's rows): its reach in a step, the change starting at its target takes, whether it did.
+        self._lanes = np.zeros((3, model.nu))
+        self._reach, self._change = self._lanes[following.REACH], self._lanes[following.CHANGE]
+        self._within_row = self._lanes[following.WITHIN]
         # The drives with a travel stop (the slides): one driven into its stop pushes at its force limit only.
         joints = model.actuator_trnid[:, 0]
         self._stopped = _view(np.arange(model.nu), np.flatnonzero(model.jnt_limited[joints].astype(bool)))
         stopped = np.arange(model.nu)[self._stopped]
         self._stop_qpos = _view(data.qpos, model.jnt_qposadr[joints[stopped]])
-        self._stop_low = model.jnt_range[joints[stopped], 0] + STOP_ZONE
-        self._stop_high = model.jnt_range[joints[stopped], 1] - STOP_ZONE
-        self._stops = list(zip(stopped.tolist(), self._stop_low.tolist(), self._stop_high.tolist()))  # (drive, low, high)
-        self._magnitude = np.zeros(model.nu)
+        self._stops = np.array([stopped, model.jnt_range[joints[stopped], 0] + STOP_ZONE,
+                                model.jnt_range[joints[stopped], 1] - STOP_ZONE], dtype=float)  # drive, low, high
         self._quiet = False
         self.timestep = 0.0
         self.set_timestep(float(model.opt.timestep))
 
     def set_timestep(self, timestep: float) -> None:
         self.timestep = timestep
-        self._reach = self.limit * timestep / self._inertia  # the most a drive's velocity changes in a step
+        self._reach[:] = self.limit * timestep / self._inertia  # the most a drive's velocity changes in a step
         self._quiet = False
 
     def disturb(self) -> None:
@@ -158,24 +162,9 @@ class FollowingDrives:
         if self._quiet:
             self._moved = False
             return
-        change, within, qvel, ctrl = self._change, self._within, self._qvel, self._ctrl
-        np.subtract(ctrl, qvel, out=change)
-        np.less_equal(np.abs(change, out=self._magnitude), self._reach, out=within)
-        # Started at a target into its stop, a slide went 9 mm into MuJoCo's soft stop (5 mm with its force). (Eight
-        # slides: plain Python costs less than numpy's passes; a slide short of its stop zones needs no more.)
-        for (k, low, high), position in zip(self._stops, self._stop_qpos.tolist()):
-            if not low <= position <= high:
-                target = float(ctrl[k])
-                if (position > high and target > 0.0) or (position < low and target < 0.0):
-                    within[k] = False
         self._moved = True
-        # Once every drive is at its target, nothing changes that until a target does or a rod is jolted. (On 16
-        # drives count_nonzero and a plain copy cost a fraction of ndarray.all() and a masked copy.)
-        self._quiet = np.count_nonzero(within) == len(within)
-        if self._quiet:
-            np.copyto(qvel, ctrl)
-        else:
-            np.copyto(qvel, ctrl, where=within)
+        # Once every drive is at its target, nothing changes that until a target does or a rod is jolted.
+        self._quiet = self._follow(self._ctrl, self._qvel, self._stop_qpos, self._lanes, self._stops)
 
     def efforts(self, data: mujoco.MjData) -> np.ndarray:
         """Each drive's force over the last step: its servo's and what starting at the target took."""
@@ -183,7 +172,7 @@ class FollowingDrives:
         moved[:] = 0.0
         if self._moved:
             np.multiply(self._change, self._inertia / self.timestep, out=moved)
-            moved[~self._within] = 0.0
+            moved[self._within_row == 0.0] = 0.0
         return np.clip(data.actuator_force + moved, -self.limit, self.limit)
 
 

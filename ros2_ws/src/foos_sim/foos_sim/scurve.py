@@ -12,8 +12,9 @@ reaches if it just brought its acceleration to zero is v0 + a0 |a0| / 2J):
     phase 3: ap -> 0  in ap / J,        gains ap^2 / 2J
     ap^2 = J G + a0^2 / 2 with no plateau; else ap = A and the plateau takes the rest at A.
 
-Everything is elementwise numpy, so one call plans the 16 drives of the table or thousands of lanes of a
-calibration fit. A plan is exact: evaluating it at any time gives the profile's state there, and planning
+Everything is elementwise numpy, so one call plans thousands of lanes of a calibration fit; the same formulas compiled
+one lane at a time (scurve_lanes) follow the calibration's long recurrences and give the fast physics its setpoints.
+A plan is exact: evaluating it at any time gives the profile's state there, and planning
 again from that state towards the same target gives the same trajectory (no drift from re-planning).
 
 Why not `ruckig` (PyPI 0.19.4, whose velocity interface computes the same time-optimal profiles): it steps
@@ -24,7 +25,6 @@ times or vectorised over a calibration fit's lanes. A velocity target needs only
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
@@ -43,21 +43,6 @@ class Profile:
     jerk3: np.ndarray
     t3: np.ndarray
     target: np.ndarray
-    # Per lane, what every evaluation of the velocity needs, computed at the first (the fast physics evaluates a plan
-    # every few steps, each numpy pass on 16 lanes costing about a microsecond; a calibration fit's plans in
-    # `follow` are never evaluated so): the acceleration through phases 2 and 3, and half of each phase's jerk.
-    @cached_property
-    def a1(self) -> np.ndarray:
-        return self.a0 + self.jerk1 * self.t1
-
-    @cached_property
-    def half_jerk1(self) -> np.ndarray:
-        return 0.5 * self.jerk1
-
-    @cached_property
-    def half_jerk3(self) -> np.ndarray:
-        return 0.5 * self.jerk3
-
     @property
     def duration(self) -> np.ndarray:
         """Time from the plan's start until each lane holds its target."""
@@ -115,44 +100,6 @@ def evaluate(profile: Profile, elapsed) -> tuple[np.ndarray, np.ndarray, np.ndar
     v = np.where(done, profile.target, v)
     a = np.where(done, 0.0, a)
     return v, a, d
-
-
-def _in_phases(profile: Profile, elapsed):
-    """The velocity at `elapsed` (before the profile ends) and what the acceleration needs: (v, e1, e3, done).
-
-    v0 + a0 e1 + J1 e1^2 / 2 + a1 (e2 + e3) + J3 e3^2 / 2, each e the time spent in its phase so far. (In place where
-    it can, a single lane's numpy scalars included: on the fast physics' few lanes each numpy pass costs more than its
-    arithmetic; the operations and their order, hence every bit of the result, are those of the formula.)"""
-    elapsed = np.asarray(elapsed, dtype=float)
-    e1 = np.minimum(np.maximum(elapsed, 0.0), profile.t1)
-    rest = elapsed - profile.t1
-    e2 = np.minimum(np.maximum(rest, 0.0), profile.t2)
-    rest -= profile.t2
-    e3 = np.minimum(np.maximum(rest, 0.0), profile.t3)
-    v = profile.half_jerk1 * e1
-    v += profile.a0
-    v *= e1
-    v += profile.v0
-    e2 += e3
-    e2 *= profile.a1
-    v += e2
-    squared = profile.half_jerk3 * e3
-    squared *= e3
-    v += squared
-    return v, e1, e3, rest >= profile.t3
-
-
-def state(profile: Profile, elapsed: float) -> tuple[np.ndarray, np.ndarray]:
-    """evaluate()'s (velocity, acceleration) at one time, in fewer numpy passes (a re-plan's start)."""
-    v, e1, e3, done = _in_phases(profile, elapsed)
-    a = np.where(e1 < profile.t1, profile.a0 + profile.jerk1 * e1, profile.a1 + profile.jerk3 * e3)
-    return np.where(done, profile.target, v), np.where(done, 0.0, a)
-
-
-def velocity(profile: Profile, elapsed: np.ndarray) -> np.ndarray:
-    """evaluate()'s velocity alone, in fewer numpy passes (the fast physics' servo targets, every few steps)."""
-    v, _, _, done = _in_phases(profile, elapsed)
-    return np.where(done, profile.target, v)
 
 
 def advance(v0, a0, target, accel, jerk, elapsed) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

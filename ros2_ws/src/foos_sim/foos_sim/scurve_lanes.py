@@ -1,4 +1,5 @@
-"""scurve.plan and scurve.evaluate compiled one lane at a time (numba), for the long recurrences of a calibration fit.
+"""scurve.plan and scurve.evaluate compiled one lane at a time (numba), for the long recurrences of a calibration fit,
+and the fast physics' setpoints (ProfileDrives: a re-plan and the setpoint blocks, _in_phases below).
 
 A fit follows hundreds of lanes through every command event of a game (60000 events of 2 ms commands in 120 s) and
 then evaluates each lane at every fitting sample. In numpy that is a pass of about 60 ufuncs per event over a few
@@ -13,6 +14,13 @@ until it is.
 cache=True keeps the compiled code between processes in __pycache__ beside this file, or, where that is not
 writable (an installed package), in numba's per-user cache directory; without a cache the first call compiles
 (about 2-3 s, measured in the log above).
+
+The fast physics' generator (foos_sim.drive_profiles.ProfileDrives) holds its plan of the 16 drives packed as the
+rows of one (PLAN_ROWS, 16) array (one argument: numba's dispatch costs about 0.45 us an array argument, a numpy
+pass on 16 values 1-3 us, and a setpoint block was ten such passes). Its velocity within the phases (_in_phases) is
+the one rule: scurve.evaluate's closed form regrouped (v0 + a0 e1 + J1 e1^2 / 2 + a1 (e2 + e3) + J3 e3^2 / 2), which
+tests/foos_sim/test_drive_profiles.py checks against scurve.evaluate; the same operations in the same order as the
+numpy it replaced (docs/measurements/sim-2026-11-28-drive-speed-7.md: bit-identical trajectories).
 """
 from __future__ import annotations
 
@@ -21,6 +29,8 @@ import math
 import numpy as np
 from numba import njit
 
+V0, A0, JERK1, T1, T2, JERK3, T3, TARGET = range(8)  # the rows of a packed plan (ProfileDrives)
+PLAN_ROWS = 8
 SETTLED = 1e-9  # scurve.SETTLED (not imported: scurve imports this module lazily, and the value is the rule's)
 
 
@@ -159,3 +169,64 @@ def sampled(event_t, v_rows, a_rows, goal_rows, row, sample_t, shift, accel, jer
             if with_acceleration:
                 a_out[lane, n] = a * scale
     return v_out, a_out
+
+
+@njit(cache=True, inline="always")
+def _in_phases(plan, lane, elapsed):
+    """A packed plan's lane `elapsed` after its start: (velocity before the profile ends, e1, e3, done, a1), each e the
+    time spent in its phase so far and a1 the acceleration through phases 2 and 3."""
+    v0, a0, jerk1, t1 = plan[V0, lane], plan[A0, lane], plan[JERK1, lane], plan[T1, lane]
+    e1 = _min(_max(elapsed, 0.0), t1)
+    rest = elapsed - t1
+    e2 = _min(_max(rest, 0.0), plan[T2, lane])
+    rest = rest - plan[T2, lane]
+    t3 = plan[T3, lane]
+    e3 = _min(_max(rest, 0.0), t3)
+    a1 = a0 + jerk1 * t1
+    v = ((0.5 * jerk1) * e1 + a0) * e1 + v0
+    v = v + (e2 + e3) * a1
+    v = v + ((0.5 * plan[JERK3, lane]) * e3) * e3
+    return v, e1, e3, rest >= t3, a1
+
+
+@njit(cache=True)
+def state(plan, elapsed):
+    """(velocity, acceleration) (2, lanes) of a packed plan `elapsed` after its start."""
+    lanes = plan.shape[1]
+    out = np.empty((2, lanes))
+    for lane in range(lanes):
+        v, e1, e3, done, a1 = _in_phases(plan, lane, elapsed)
+        if done:
+            out[0, lane], out[1, lane] = plan[TARGET, lane], 0.0
+        else:
+            out[0, lane] = v
+            out[1, lane] = plan[A0, lane] + plan[JERK1, lane] * e1 if e1 < plan[T1, lane] else a1 + plan[JERK3, lane] * e3
+    return out
+
+
+@njit(cache=True)
+def replan(plan, elapsed, goal, limits):
+    """Plan again in place from the packed plan's state `elapsed` after its start towards `goal`, within limits
+    (acceleration, jerk) (2, lanes); the time from then until every lane holds its goal."""
+    now = state(plan, elapsed)
+    longest = -np.inf
+    for lane in range(plan.shape[1]):
+        v0, a0, target = now[0, lane], now[1, lane], goal[lane]
+        jerk1, t1, t2, jerk3, t3 = _plan(v0, a0, target, limits[0, lane], limits[1, lane])
+        plan[V0, lane], plan[A0, lane], plan[JERK1, lane], plan[T1, lane] = v0, a0, jerk1, t1
+        plan[T2, lane], plan[JERK3, lane], plan[T3, lane], plan[TARGET, lane] = t2, jerk3, t3, target
+        duration = t1 + t2 + t3
+        if duration > longest:
+            longest = duration
+    return longest
+
+
+@njit(cache=True)
+def velocities(plan, base, offsets, scale, lead, out, start, end):
+    """out[r] for r in [start, end): each lane's velocity at (base + offsets[r] scale) + lead[lane] after the plan's
+    start (the setpoints at a block's step middles, or at a cut step's sub-step middles)."""
+    for r in range(start, end):
+        at = base + offsets[r] * scale
+        for lane in range(plan.shape[1]):
+            v, _, _, done, _ = _in_phases(plan, lane, at + lead[lane])
+            out[r, lane] = plan[TARGET, lane] if done else v

@@ -437,7 +437,7 @@ class TableSimulation:
                 if targets is not None:
                     self._ctrl[self._all_ctrl] = targets
                     drives.disturb()
-                window = self._sweeps.window(self._qpos.tolist(), self._qvel.tolist(), self._ctrl.tolist(), h)
+                window = self._sweeps.window(self._qpos, self._qvel, self._ctrl, h)
                 impacts.reachable = window.reachable
                 runs = None if window is NO_WINDOW else window.sub_steps(h)  # NO_WINDOW (the usual step): one step
                 if runs is None or (len(runs) == 1 and runs[0][1] == 1):
@@ -488,7 +488,7 @@ class TableSimulation:
                 runs = []
                 if struck and rest > 1e-3 * h:
                     self._ctrl[self._all_ctrl] = profiles.sub_targets(data.time, np.array([0.5 * rest]))[0]
-                    window = self._sweeps.window(self._qpos.tolist(), self._qvel.tolist(), self._ctrl.tolist(), rest)
+                    window = self._sweeps.window(self._qpos, self._qvel, self._ctrl, rest)
                     runs = window.sub_steps(rest)
                     impacts.reachable = window.reachable
         finally:

@@ -20,15 +20,17 @@ nearest figure across the table. Then:
   of phi (or phi + pi), rho widened by the ball's travel in the step (and twice the striking figure's speed).
   The rod turns between its angle now and after a step at its velocity now or its drive's target.
 
-window() gives the part of the step in which a figure can touch the ball: only that part is cut into sub-steps
+The scan runs compiled before every fast step (foos_sim.sweep_scan: these rules' only code). window() gives the part
+of the step in which a figure can touch the ball: only that part is cut into sub-steps
 of FIGURE_STEP; before it and after it one sub-step each (nothing can touch there). After a sub-step with an
 impact, foos_sim.simulation plans the rest of the step again.
 """
 from __future__ import annotations
 
-import bisect
 import math
 from dataclasses import dataclass
+
+import numpy as np
 
 # m of the figure's travel in one sub-step while it can touch the ball: the impacts were checked at up to 40 rad/s
 # on the former servos (a foot's edge 6.2 mm a step); 3 mm kept the kicks within 5 % of the 20 kHz reference
@@ -37,7 +39,6 @@ from dataclasses import dataclass
 FIGURE_STEP = 0.003
 CONTACT_MARGIN = 0.001  # m added to the ball's radius: what a figure within it may touch
 LEAST_FIGURE_SPEED = 0.5  # m/s a figure near the ball is taken to move at least (look-ahead gaps, foos_sim.impacts)
-_TINY = 1e-9
 
 
 def free_box(model, ball_radius: float) -> tuple[float, float, float]:
@@ -138,184 +139,26 @@ class SweepTest:
         self.rods = sorted(rods, key=lambda r: r.y)
         self.ys = [r.y for r in self.rods]
         self.ball_qpos, self.ball_qvel = ball_qpos, ball_qvel
+        # The same, packed for the compiled scan (foos_sim.sweep_scan's columns and entries, in their order).
+        self._rods = np.array([[r.y, r.slide_dof, r.rotate_dof, r.slide_ctrl, r.rotate_ctrl, r.slide_qpos, r.rotate_qpos,
+                                r.figures, r.spacing] for r in self.rods], dtype=float).reshape(len(self.rods), 9)
+        self._rotate_dofs = [r.rotate_dof for r in self.rods]
+        self._shape = np.array([ball_qpos, ball_qvel, *walls, self.floor, self.axis_height, self.foot_reach, self.foot_half,
+                                self.head_half, self.head_reach, self.across, figure_reach, radius, *self.blocks[0],
+                                *self.blocks[1], FIGURE_STEP, LEAST_FIGURE_SPEED], dtype=float)
+        self._out = np.zeros(4 + len(self.rods))
+        self._scan = None
 
-    def window(self, qpos: list, qvel: list, ctrl: list, h: float) -> Window:
-        """The part of the next step of h in which a figure can touch the ball (qpos, qvel, ctrl as lists)."""
-        b, bv = self.ball_qpos, self.ball_qvel
-        bx, by, bz = qpos[b], qpos[b + 1], qpos[b + 2]
-        vx, vy, vz = qvel[bv], qvel[bv + 1], qvel[bv + 2]
-        # On a straight path through the step (no wall or cover reached) the figures' meeting times are found
-        # exactly (_meeting); a path that bounces takes the sectors widened by the ball's travel (_part).
-        wx, wy, wz = self.walls
-        straight = (abs(bx + vx * h) < wx and abs(by + vy * h) < wy and bz + vz * h < wz
-                    and (vz > -1e-3 or bz + vz * h > self.floor))
-        window, striking = self._scan(qpos, qvel, ctrl, h, straight, 0.0, ())
-        if striking:
-            # The ball may bounce off a figure that can strike it and leave its straight path within the step: for the
-            # other rods its travel then bounds where it goes (the sector test), in any direction, its speed raised by
-            # at most twice the striking figure's until the step is planned again (after the sub-step of an impact, or
-            # the step's end). Where another rod can touch it too, every rod takes the sector test.
-            fine = window.turning * h * (window.end - window.start) > FIGURE_STEP
-            extra = 2.0 * window.figure_speed * (FIGURE_STEP / window.turning if fine else h)
-            window, more = self._scan(qpos, qvel, ctrl, h, straight, extra, striking)
-            if set(more) - set(striking):
-                window, _ = self._scan(qpos, qvel, ctrl, h, False, extra, ())
-        if window.end < window.start:
-            return NO_WINDOW  # no figure can touch the ball in this step
-        return window
-
-    def _scan(self, qpos: list, qvel: list, ctrl: list, h: float, straight: bool, extra: float,
-              exempt: tuple) -> tuple[Window, tuple]:
-        """The union of the rods' windows and the rods (indices) that have one. On a straight path each rod's meeting
-        times (_meeting), or with `extra` travel the sector test for all but the `exempt` rods."""
-        b, bv = self.ball_qpos, self.ball_qvel
-        bx, by, bz = qpos[b], qpos[b + 1], qpos[b + 2]
-        vx, vy, vz = qvel[bv], qvel[bv + 1], qvel[bv + 2]
-        travel = math.sqrt(vx * vx + vy * vy + vz * vz) * h + extra
-        # The ball's centre stays at least this far below the axes through the step (gravity only lowers it).
-        below = self.axis_height - (bz + (vz if vz > 0.0 else 0.0) * h) - extra
-        reach = self.foot_reach + travel
-        rods, ys = self.rods, self.ys
-        i = bisect.bisect_left(ys, by - reach)
-        if i == len(ys) or ys[i] > by + reach:
-            return _NO_SCAN  # no rod within a foot's reach along the table
-        found = []
-        speed, turning, start, end = LEAST_FIGURE_SPEED, 0.0, 1.0, 0.0  # no part yet: start > end
-        while i < len(ys) and ys[i] <= by + reach:
-            rod = rods[i]
-            i += 1
-            dy, dz = by - rod.y, bz - self.axis_height
-            rho = math.sqrt(dy * dy + dz * dz)
-            closest = rho - travel
-            if below > closest:
-                closest = below
-            if closest > self.foot_reach:
-                continue
-            # Across the table: the ball within reach of the figure nearest to it (the rod slides in the step too).
-            across = bx - qpos[rod.slide_qpos]
-            middle = (rod.figures - 1) / 2  # figure k sits at (k - middle) * spacing from the rod's centre
-            nearest = 0.0
-            if rod.figures > 1:
-                nearest = (min(max(round(across / rod.spacing + middle), 0), rod.figures - 1) - middle) * rod.spacing
-            slide_now, slide_target = abs(qvel[rod.slide_dof]), abs(ctrl[rod.slide_ctrl])
-            slide_speed = slide_target if slide_target > slide_now else slide_now
-            if abs(across - nearest) > self.across + travel + slide_speed * h:
-                continue
-            now, target = qvel[rod.rotate_dof], ctrl[rod.rotate_ctrl]
-            fastest = abs(target) if abs(target) > abs(now) else abs(now)
-            if straight and (extra == 0.0 or i - 1 in exempt):
-                part = self._meeting(rod, qpos, qvel, ctrl, h, nearest)
-            else:
-                part = self._part(qpos[rod.rotate_qpos], now, target, h, math.atan2(dy, -dz), closest, travel)
-            if part is None:
-                continue
-            rim = fastest * self.figure_reach
-            if rim > turning:
-                turning = rim
-            if slide_speed + rim > speed:
-                speed = slide_speed + rim
-            if part[0] < start:
-                start = part[0]
-            if part[1] > end:
-                end = part[1]
-            found.append(i - 1)
+    def window(self, qpos: np.ndarray, qvel: np.ndarray, ctrl: np.ndarray, h: float) -> Window:
+        """The part of the next step of h in which a figure can touch the ball (MuJoCo's qpos, qvel and ctrl): the
+        scan above, compiled (foos_sim.sweep_scan)."""
+        if self._scan is None:
+            # numba's import (about 0.5 s) only where a window is asked for: the jerk-limited drives
+            from . import sweep_scan
+            self._scan = sweep_scan.window
+        found = self._scan(qpos, qvel, ctrl, h, self._rods, self._shape, self._out)
         if not found:
-            return _NO_SCAN
-        return Window(start, end, turning, speed, frozenset(rods[k].rotate_dof for k in found)), tuple(found)
-
-    def _meeting(self, rod: RodIndex, qpos: list, qvel: list, ctrl: list, h: float, nearest: float) -> tuple[float, float] | None:
-        """(start, end) fractions of the step between the first and the last moment the rod's figure nearest to the
-        ball comes within the ball's radius (and CONTACT_MARGIN) of it, the ball on its straight path
-        and the rod turning and sliding at its drive's target; None if it never does. Conservative advancement:
-        the gap closes no faster than the ball's speed plus the figure's, so a gap d is safe for d / that long.
-        A drive not yet at its target (a jolt) may lag its path by the difference times the time."""
-        b, bv = self.ball_qpos, self.ball_qvel
-        px, py, pz = qpos[b] - qpos[rod.slide_qpos] - nearest, qpos[b + 1] - rod.y, qpos[b + 2] - self.axis_height
-        vx, vy, vz = qvel[bv], qvel[bv + 1], qvel[bv + 2]
-        angle, turn, slide = qpos[rod.rotate_qpos], ctrl[rod.rotate_ctrl], ctrl[rod.slide_ctrl]
-        reach = self.figure_reach
-        lag = abs(qvel[rod.rotate_dof] - turn) * reach + abs(qvel[rod.slide_dof] - slide)  # m/s off the path
-        closing = math.sqrt(vx * vx + vy * vy + vz * vz) + abs(turn) * reach + abs(slide) + lag
-        touch = self.radius
-        (low0, high0, thick0, wide0), (low1, high1, thick1, wide1) = self.blocks  # the foot, the body
-        sin_, cos_, sqrt = math.sin, math.cos, math.sqrt
-
-        def gap(t: float) -> float:
-            theta = angle + turn * t
-            sin, cos = sin_(theta), cos_(theta)
-            y, z = py + vy * t, pz + vz * t
-            along, side, x = y * sin - z * cos, abs(y * cos + z * sin), abs(px + (vx - slide) * t)
-            ds = low0 - along if along < low0 else (along - high0 if along > high0 else 0.0)
-            dl = side - thick0 if side > thick0 else 0.0
-            dx = x - wide0 if x > wide0 else 0.0
-            least = ds * ds + dl * dl + dx * dx
-            ds = low1 - along if along < low1 else (along - high1 if along > high1 else 0.0)
-            dl = side - thick1 if side > thick1 else 0.0
-            dx = x - wide1 if x > wide1 else 0.0
-            other = ds * ds + dl * dl + dx * dx
-            if other < least:
-                least = other
-            return sqrt(least) - touch - lag * t
-
-        if closing <= 0.0:  # a still ball, a still rod at its target: the gap stays what it is all step
-            return (0.0, 1.0) if gap(0.0) <= 1e-4 else None
-        resolution = 1e-4 / max(closing, 1e-3)  # s: a gap under 0.1 mm counts as met
-        t = 0.0
-        while True:
-            d = gap(t)
-            if d <= 1e-4:
-                first = t
-                break
-            t += d / closing
-            if t > h:
-                return None
-        t = h
-        while t > first:
-            d = gap(t)
-            if d <= 1e-4:
-                break
-            t -= max(d / closing, resolution)
-        return first / h, max(t, first) / h
-
-    def _part(self, angle: float, now: float, target: float, h: float, ball_angle: float, closest: float,
-              travel: float) -> tuple[float, float] | None:
-        """(start, end) as fractions of the step in which the rod's figure can touch a ball seen at ball_angle
-        and no nearer than `closest` to the axis, or None when it cannot."""
-        if closest <= self.foot_half:
-            return 0.0, 1.0  # a ball at the rod itself: any angle (not met in play)
-        wobble = travel / closest  # the most the ball's angle changes in the step
-        zones = [(ball_angle, math.asin(self.foot_half / closest) + wobble)]
-        if closest <= self.head_reach:
-            zones.append((ball_angle + math.pi, math.asin(min(1.0, self.head_half / closest)) + wobble))
-        low, high = min(now, target), max(now, target)  # rad/s: the rod's velocity stays between them
-        start, end = 1.0, 0.0
-        for centre, half in zones:
-            if half >= math.pi:
-                return 0.0, 1.0
-            # The figure points at `angle + turned` after turning by `turned`; the zone is |turned - ahead| <= half,
-            # and the same a turn ahead or behind (a wide zone of a fast ball near the axis may wrap round).
-            ahead = math.remainder(centre - angle, 2.0 * math.pi)
-            for turns in (-2.0 * math.pi, 0.0, 2.0 * math.pi):
-                part = self._zone_part(ahead + turns - half, ahead + turns + half, low, high, h)
-                if part is not None:
-                    start, end = min(start, part[0]), max(end, part[1])
-        return (start, end) if end >= start else None
-
-    @staticmethod
-    def _zone_part(first: float, last: float, low: float, high: float, h: float) -> tuple[float, float] | None:
-        """(start, end) fractions of the step in which the turn, from 0 at a rate within [low, high], lies in
-        [first, last]; None if it never does."""
-        if low >= 0.0 or high <= 0.0:
-            # Turning one way (or still): the turn grows from 0 to at most `fastest` h, at least `slowest` h.
-            fastest, slowest = (high, low) if high > 0.0 else (-low, -high)
-            if high <= 0.0:
-                first, last = -last, -first
-            if last < 0.0 or first > fastest * h:
-                return None
-            part_start = max(0.0, first / (fastest * h)) if fastest > _TINY else 0.0
-            part_end = min(1.0, last / (slowest * h)) if slowest > _TINY else 1.0
-            return part_start, part_end
-        # Reversing within the step: the turn stays within [low h, high h].
-        if last < low * h or first > high * h:
-            return None
-        return 0.0, 1.0
+            return NO_WINDOW  # no figure can touch the ball in this step
+        start, end, turning, speed = self._out[:4].tolist()
+        flags = self._out[4:].tolist()
+        return Window(start, end, turning, speed, frozenset(dof for dof, flag in zip(self._rotate_dofs, flags) if flag))
