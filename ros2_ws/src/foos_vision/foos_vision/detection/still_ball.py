@@ -34,11 +34,6 @@ felt and not in a team's colour. No ball colour is named: any ball but a white o
 a white one is lit enough for the light cue. Past the felt, away from grey, the segment reaches as far as the pixel is
 lighter than the felt: a lamp's stronger light on a coloured cloth raises its chroma too. The tint's candidates are
 found and scored as the light's are (on the felt found only: past it lie the walls, whose colour is a tint of its own).
-A figure's round head, seen from above and lit, is the ball's size, lighter than the felt in its lamp's highlight, and
-round; its paint is its team's colour but its highlight is white, so the colour test does not see it. What a still shows
-of it is that its paint encloses the highlight: within the ball's disc around the candidate, a team's colour lies in
-most directions (MAX_ENCLOSED of them or more). A ball at a figure's foot is touched by the foot from one side; such a
-candidate is a figure (its score is set to none; it stays among the candidates).
 The best light candidate is the ball when its score reaches MIN_SCORE and it leads every other light candidate more
 than a ball's width away by MIN_LEAD: two things in a frame that look as much like a ball as each other make the pick a
 guess, and a wrong ball costs more than none (the frame then has no ball to report). Only when the light has no clear
@@ -100,12 +95,6 @@ VETO_BELOW = 0.5  # the verifier's chance below which a hand-made pick is not re
 MIN_VERIFIED = 0.9  # the verifier's chance a candidate needs to be the ball where the hand-made rules pick none
 MIN_VERIFIED_LEAD = 0.3  # over the verifier's next surest candidate more than a ball's width away
 MIN_LEAD = 0.1  # the best's score over the next best's more than a ball's width away: less, and the pick is a guess
-PAINT_OFF_FELT = 20.0  # Lab a/b levels from the felt around it: a team's colour this far off the felt is a figure's paint
-ENCLOSE_RADII = (0.4, 1.1)  # of the predicted radius: the annulus around a candidate where paint may enclose it
-ENCLOSE_FILL = 0.3  # of a sector's annulus pixels in paint: the sector holds paint
-MAX_ENCLOSED = 0.5  # share of sectors holding paint from which a candidate is a figure's head: a foot touches a ball
-# from one side, at most half of its directions (leonhart's balls: 0-0.31, but 0.50 for one under a head; lit heads
-# among the top rivals: 0.62-0.94, vision-2026-11-28-stills-7.md)
 
 
 @dataclass
@@ -125,10 +114,9 @@ class StillCandidate:
     shape: float  # correlation of the light with a disc in a ring, -1..1
     rim: float  # share of the sectors of a circle of the ball's size with an edge on it, light inside, 0..1
     team_balls: float  # balls' areas of the field in this candidate's colour (0: not a chromatic colour)
-    score: float  # 0 for a figure's head (enclosed >= MAX_ENCLOSED)
+    score: float
     cue: str = "light"  # the map it was found in: "light" (lighter than the felt) or "tint" (its chroma, see _tinted)
     verified: Optional[float] = None  # the ball verifier's chance that this is the ball (None: not run)
-    enclosed: float = 0.0  # share of the sectors around it with a team's paint within the ball's disc, 0..1
 
 
 class StillBallFinder:
@@ -231,10 +219,8 @@ class StillBallFinder:
         grow = int(2 * FIELD_MARGIN * r) | 1
         searched = cv2.dilate(region, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (grow, grow))) > 0
         light = cv2.GaussianBlur(lab[..., 0].astype(np.float32), (0, 0), 1.0)
-        paint = _paint(lab, around, team)
-        found = (_candidates("light", lighter, light, lab, team, paint, searched, r, scale)
-                 + _candidates("tint", tinted, cv2.GaussianBlur(tinted, (0, 0), 1.0), lab, team, paint, region > 0, r,
-                               scale))
+        found = (_candidates("light", lighter, light, lab, team, searched, r, scale)
+                 + _candidates("tint", tinted, cv2.GaussianBlur(tinted, (0, 0), 1.0), lab, team, region > 0, r, scale))
         found.sort(key=lambda c: -c.score)
         if self.verifier is not None:
             verify(self.verifier, bgr, field, found)
@@ -250,10 +236,9 @@ def verify(verifier: BallVerifier, bgr: np.ndarray, field: FeltField, candidates
 
 
 def _candidates(cue: str, strength: np.ndarray, edges_of: np.ndarray, lab: np.ndarray, team: np.ndarray,
-                paint: np.ndarray, searched: np.ndarray, r: float, scale: float) -> list[StillCandidate]:
+                searched: np.ndarray, r: float, scale: float) -> list[StillCandidate]:
     """The peaks of the disc filter on a cue's map (strength: how much a pixel differs from the felt that way), each
-    scored on its shape in that map, its rim in edges_of's edges and its team colour (full-frame pixels); one enclosed
-    by a team's paint (_enclosed) scores none."""
+    scored on its shape in that map, its rim in edges_of's edges and its team colour (full-frame pixels)."""
     contrast, radius = _disc_filter(strength, r)
     size = max(3, int(r) | 1)
     peaks = ((contrast == cv2.dilate(contrast, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))))
@@ -270,10 +255,9 @@ def _candidates(cue: str, strength: np.ndarray, edges_of: np.ndarray, lab: np.nd
             continue
         rim, (cx, cy) = _rim(gx, gy, x, y, r)
         team_balls = _team_balls(lab, team, x, y, rr)
-        enclosed = _enclosed(paint, round(cx), round(cy), r)
-        score = 0.0 if enclosed >= MAX_ENCLOSED else shape * rim / (1.0 + (team_balls / TEAM_BALLS) ** 2)
+        score = shape * rim / (1.0 + (team_balls / TEAM_BALLS) ** 2)
         found.append(StillCandidate(cx / scale, cy / scale, rr / scale, float(contrast[y, x]), shape, rim,
-                                    team_balls, score, cue, enclosed=enclosed))
+                                    team_balls, score, cue))
     return found
 
 
@@ -537,29 +521,3 @@ def _team_balls(lab: np.ndarray, team: np.ndarray, x: int, y: int, rr: float) ->
     if math.hypot(a - 128, b - 128) <= CHROMATIC:
         return 0.0
     return float(team[int(round(a)), int(round(b))])
-
-
-def _paint(lab: np.ndarray, around: np.ndarray, team: np.ndarray) -> np.ndarray:
-    """Where figures' paint is: a chromatic colour of a team's (TEAM_BALLS balls' areas of the field or more) that lies
-    PAINT_OFF_FELT from the felt around it (the felt's own shaded or lit stretches come near a team's green)."""
-    a, b = lab[..., 1], lab[..., 2]
-    off_felt = np.hypot(a.astype(np.float32) - around[..., 1], b.astype(np.float32) - around[..., 2])
-    chromatic = np.hypot(a.astype(np.float32) - 128.0, b.astype(np.float32) - 128.0) > CHROMATIC
-    return (team[a, b] >= TEAM_BALLS) & chromatic & (off_felt > PAINT_OFF_FELT)
-
-
-def _enclosed(paint: np.ndarray, x: int, y: int, r: float) -> float:
-    """The share of RIM_SECTORS directions around (x, y) in which figures' paint fills ENCLOSE_FILL of the annulus
-    ENCLOSE_RADII of r: a lit head's paint surrounds its highlight, a foot lies on one side of a ball (0 where the
-    annulus leaves the image)."""
-    xx, yy, d = _offsets(ENCLOSE_RADII[1] * r)
-    n = xx.shape[0] // 2
-    h, w = paint.shape
-    if x - n < 0 or y - n < 0 or x + n >= w or y + n >= h:
-        return 0.0
-    annulus = (d > ENCLOSE_RADII[0] * r) & (d <= ENCLOSE_RADII[1] * r)
-    sector = ((np.arctan2(yy, xx) + math.pi) / (2 * math.pi) * RIM_SECTORS).astype(int) % RIM_SECTORS
-    painted = paint[y - n:y + n + 1, x - n:x + n + 1] & annulus
-    held = np.bincount(sector[painted], minlength=RIM_SECTORS)
-    size = np.bincount(sector[annulus], minlength=RIM_SECTORS)
-    return float(np.mean(held >= ENCLOSE_FILL * np.maximum(size, 1)))
