@@ -3,7 +3,8 @@ wrapper (perf_counter), over R repeats of the same seeded 4 s game; per part the
 machine only adds). Inclusive times, nested parts indented. The wrappers cost about 0.3-1 us a call (compare the
 total with the unwrapped API's).
 
-  python budget.py [R]        # run on one core: OMP_NUM_THREADS=1 taskset -c 0 python budget.py 5
+  python budget.py [R] [contacts]   # run on one core: OMP_NUM_THREADS=1 taskset -c 0 python budget.py 5
+                                    # contacts: ImpactSolver._contacts_for_impacts wrapped too (round 8's rows)
 
 The previous round's script (../sim-2026-11-28-drive-speed/budget.py) with the compiled parts (scurve_lanes.replan and
 velocities, the drive following's kernel) wrapped where its numpy functions were; the shared helpers from there."""
@@ -27,7 +28,7 @@ SECONDS = 4.0
 STEPS = SECONDS * 500
 
 
-def main(repeats: int) -> None:
+def main(repeats: int, contacts: bool = False) -> None:
     bench = bench_sim()
     table = TableSimulation(ROBOT, physics="fast")
     plain = [bench.api_cost(table, 0, SECONDS) for _ in range(repeats)]
@@ -59,6 +60,7 @@ def main(repeats: int) -> None:
              (table._drives, "_follow", "      following.follow (compiled)"),
              (table._impacts, "resolve", "    ImpactSolver.resolve"), (table._impacts, "_screen", "      _screen"),
              (table._impacts, "_resolve_impacts", "        _resolve_impacts"),
+             *([(table._impacts, "_contacts_for_impacts", "        _contacts_for_impacts")] if contacts else []),
              (table._impacts, "after_step", "    ImpactSolver.after_step"),
              (table._impacts, "set_motion", "  ImpactSolver.set_motion"),
              (simulation.mujoco, "mj_step1", "  mj_step1"), (simulation.mujoco, "mj_step2", "  mj_step2")]
@@ -80,4 +82,4 @@ def main(repeats: int) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 5)
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 5, "contacts" in sys.argv[2:])
