@@ -6,8 +6,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 from foos_vision import real_bench
 from foos_vision.detection import still_ball
 
@@ -35,31 +33,13 @@ for name in ("leonhart", "goal5"):
     data[name] = frames
     print(name, len(frames), f"cpu {time.process_time()-t:.0f}s", flush=True)
 if "renders" in sets:
-    from foos_sim.camera.live import LiveCamera, LiveCameraConfig
-    from foos_sim.simulation import TableSimulation
-    from foos_vision.still_renders import COLOURS, POSITIONS, SETS
+    from foos_vision.still_renders import still_render_set
     frames = []
     t = time.process_time()
-    for camera_name, seed in SETS:
-        rng = np.random.default_rng(seed)
-        xs, ys = rng.uniform(-0.3, 0.3, POSITIONS), rng.uniform(-0.55, 0.55, POSITIONS)
-        for colour in COLOURS:
-            camera = LiveCamera(LiveCameraConfig(rate=60, width=1280, height=720, camera=camera_name,
-                                                 ball_colour=colour, shadows=True, seed=seed))
-            try:
-                for x, y in zip(xs, ys):
-                    sim = TableSimulation()
-                    sim.reset(ball_position=(float(x), float(y)), ball_velocity=(0.0, 0.0))
-                    image = camera.capture(sim.data.qpos.copy())
-                    centre = sim.ball_position()[None, :]
-                    u, v = camera.camera.project(centre)[0]
-                    depth = float(camera.camera.depth(centre)[0])
-                    diameter = 2 * camera.camera.camera_matrix()[0, 0] * sim.ball_radius / depth
-                    field, cands = finder.find(image)
-                    frames.append((f"{camera_name}{seed}-{colour}", (u, v, diameter),
-                                   None if field is None else field.ball_radius_px, [light(c) for c in cands]))
-            finally:
-                camera.close()
+    for camera_name, seed, colour, image, truth in still_render_set():
+        field, cands = finder.find(image)
+        frames.append((f"{camera_name}{seed}-{colour}", truth,
+                       None if field is None else field.ball_radius_px, [light(c) for c in cands]))
     data["renders"] = frames
     print("renders", len(frames), f"cpu {time.process_time()-t:.0f}s", flush=True)
 pickle.dump(data, open(out, "wb"))
