@@ -98,36 +98,35 @@ def _event_index(event_t: np.ndarray, sample_t: np.ndarray, shift: np.ndarray) -
 
 class _Recurrences:
     """The S-curves' states at the events of lanes already followed (a fit asks for the same lanes again: a
-    component held while another is swept, the same candidates in the next sweep and subset), by lane key. A lane a
-    row of `velocity`, `acceleration` and `goals` (R, K), so that a call hands the compiled evaluation row numbers,
-    not (K, lanes) copies (two of 60000 x 600 floats per call with 2 ms commands)."""
+    component held while another is swept, the same candidates in the next sweep and subset), by lane key. The lanes
+    followed in one call make a block: (velocity, acceleration, goals), each (lanes, K), a lane a row, so that a call
+    hands the compiled evaluation row numbers, not (K, lanes) copies (two of 60000 x 600 floats per call with 2 ms
+    commands).
+
+    Blocks, not one array grown by half when full: the growth copied every lane kept so far each time and held the old
+    and the new array at once: on the robot bench's trial 20 (938 Hz encoders, 10 ms commands) 6.3 of the calibration's
+    143 profiled s, and a peak of 2.5 GB where blocks need 1.7 (robot-nominal-7); trial 18 (2 ms commands) reached 9 GB."""
 
     def __init__(self):
         self.events = None
-        self.rows: dict[tuple, int] = {}
-        self.velocity = self.acceleration = self.goals = np.empty((0, 0))
+        self.rows: dict[tuple, tuple[int, int]] = {}  # lane key -> (block, row in it)
+        self.blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
 
-    def follow(self, event_t, keys, goals, accel, jerk) -> np.ndarray:
-        """(L,) each lane's row, following the lanes not seen before (goals (K, L); accel, jerk (L,))."""
+    def follow(self, event_t, keys, goals, accel, jerk) -> tuple[np.ndarray, np.ndarray]:
+        """(L,) each lane's block and (L,) its row there, following the lanes not seen before (keys distinct; goals
+        (K, L); accel, jerk (L,))."""
         if self.events is None or len(self.events) != len(event_t) or not np.array_equal(self.events, event_t):
-            self.events, self.rows = event_t.copy(), {}
-            self.velocity = self.acceleration = self.goals = np.empty((0, len(event_t)))
+            self.events, self.rows, self.blocks = event_t.copy(), {}, []
         keyed = [tuple(k) for k in keys.tolist()]
         missing = [i for i, key in enumerate(keyed) if key not in self.rows]
         if missing:
             v, a = scurve.follow(event_t, goals[:, missing], accel[missing], jerk[missing])
-            start = len(self.rows)
-            if start + len(missing) > len(self.velocity):  # grown by half at least (copies amortised, memory bounded)
-                capacity = max(len(self.velocity) * 3 // 2, start + len(missing), 64)
-                self.velocity, self.acceleration, self.goals = (
-                    np.concatenate([x[:start], np.empty((capacity - start, len(event_t)))])
-                    for x in (self.velocity, self.acceleration, self.goals))
-            self.velocity[start:start + len(missing)] = v.T
-            self.acceleration[start:start + len(missing)] = a.T
-            self.goals[start:start + len(missing)] = goals[:, missing].T
+            block = len(self.blocks)
+            self.blocks.append((np.ascontiguousarray(v.T), np.ascontiguousarray(a.T), np.ascontiguousarray(goals[:, missing].T)))
             for j, i in enumerate(missing):
-                self.rows[keyed[i]] = start + j
-        return np.array([self.rows[key] for key in keyed], dtype=np.int64)
+                self.rows[keyed[i]] = (block, j)
+        places = np.array([self.rows[key] for key in keyed], dtype=np.int64).reshape(-1, 2)
+        return places[:, 0], places[:, 1]
 
 
 RECURRENCES = _Recurrences()
@@ -142,11 +141,27 @@ def _s_curve_velocity(event_t, goals, sample_t, delay, accel, jerk, acceleration
     accel, jerk, delay = (np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (lanes,))) for x in (accel, jerk, delay))
     keys = np.stack([signature, accel, jerk], axis=1)
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    rows = RECURRENCES.follow(event_t, keys[first], goals[:, first], accel[first], jerk[first])[inverse.ravel()]
+    block, row = (x[inverse.ravel()] for x in RECURRENCES.follow(event_t, keys[first], goals[:, first], accel[first], jerk[first]))
+    sample_t = np.ascontiguousarray(sample_t, dtype=float)
     # Each lane's S-curve from its last event's state to every sample, compiled (scurve_lanes.sampled; the same bits as
-    # scurve.advance on (lanes x samples) arrays, about half of a robot-table trial's calibration in numpy).
-    v, a = scurve_lanes.sampled(RECURRENCES.events, RECURRENCES.velocity, RECURRENCES.acceleration, RECURRENCES.goals, rows,
-                                np.ascontiguousarray(sample_t, dtype=float), delay, accel, jerk, acceleration)
+    # scurve.advance on (lanes x samples) arrays, about half of a robot-table trial's calibration in numpy), a block at
+    # a time (each lane on its own: the same bits however the lanes are grouped).
+    used = np.unique(block)
+    if len(used) == 1:
+        velocity, accel_rows, goal_rows = RECURRENCES.blocks[int(used[0])]
+        v, a = scurve_lanes.sampled(RECURRENCES.events, velocity, accel_rows, goal_rows, row, sample_t, delay, accel, jerk,
+                                    acceleration)
+        return (v, a) if acceleration else v
+    v = np.empty((lanes, len(sample_t)))
+    a = np.empty((lanes, len(sample_t))) if acceleration else None
+    for b in used:
+        lane = np.flatnonzero(block == b)
+        velocity, accel_rows, goal_rows = RECURRENCES.blocks[int(b)]
+        v_block, a_block = scurve_lanes.sampled(RECURRENCES.events, velocity, accel_rows, goal_rows, row[lane], sample_t,
+                                                delay[lane], accel[lane], jerk[lane], acceleration)
+        v[lane] = v_block
+        if acceleration:
+            a[lane] = a_block
     return (v, a) if acceleration else v
 
 
