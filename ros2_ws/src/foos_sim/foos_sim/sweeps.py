@@ -105,10 +105,9 @@ class Window:
         return runs
 
 
-# The step as one, where no figure can touch the ball (Window is frozen: one instance serves every such step), and a
-# scan that found no rod (the usual case: most steps the ball is beyond every foot's reach).
+# The step as one, where no figure can touch the ball (the usual case: most steps the ball is beyond every foot's
+# reach). Window is frozen: one instance serves every such step.
 NO_WINDOW = Window(0.0, 1.0, 0.0, LEAST_FIGURE_SPEED)
-_NO_SCAN = (Window(1.0, 0.0, 0.0, LEAST_FIGURE_SPEED), ())
 
 
 class SweepTest:
@@ -137,7 +136,6 @@ class SweepTest:
         self.walls = walls
         self.floor = float(params["ball"]["radius"]) + CONTACT_MARGIN
         self.rods = sorted(rods, key=lambda r: r.y)
-        self.ys = [r.y for r in self.rods]
         self.ball_qpos, self.ball_qvel = ball_qpos, ball_qvel
         # The same, packed for the compiled scan (foos_sim.sweep_scan's columns and entries, in their order).
         self._rods = np.array([[r.y, r.slide_dof, r.rotate_dof, r.slide_ctrl, r.rotate_ctrl, r.slide_qpos, r.rotate_qpos,
