@@ -25,22 +25,19 @@ def check_decision_period(period) -> int:
 
 
 class HeldDecision:
-    """Counts control steps since the last decision: `due()` is true on an episode's first step and every `period`
-    steps after it."""
+    """Counts an episode's control steps: `due()` is true on its first step and every `period` steps after it."""
 
     def __init__(self, period: int):
         self.period = check_decision_period(period)
         self.reset()
 
     def reset(self) -> None:
-        self.steps_since = None
+        self.steps = 0  # control steps of this episode so far
 
     def due(self) -> bool:
-        if self.steps_since is None or self.steps_since >= self.period - 1:
-            self.steps_since = 0
-            return True
-        self.steps_since += 1
-        return False
+        due = self.steps % self.period == 0
+        self.steps += 1
+        return due
 
 
 class DecisionPeriod(gym.Wrapper):
