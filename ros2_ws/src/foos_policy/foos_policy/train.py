@@ -16,7 +16,7 @@ from tqdm import tqdm
 from .actions import ACTION_MODES
 from .commands import add_task_arguments, check_task_arguments, run_command, write_json
 from .curriculum import stage_at, stages
-from .decisions import DecisionPeriod
+from .decisions import DecisionPeriod, check_decision_period
 from .env import make_env
 from .metrics import MetricsWriter, plot_metrics, summarize_tail
 from .observation import OBS_SCALE, OBS_SCALED_BOUND, OBS_SIZE, scaled_observation
@@ -139,8 +139,10 @@ def parse_args(argv=None) -> argparse.Namespace:
         p.error("--n-envs, --train-freq and --gradient-steps must be positive")
     if not 0 < args.gamma <= 1:
         p.error(f"--gamma must be in (0, 1], got {args.gamma}")
-    if args.decision_period < 1:
-        p.error(f"--decision-period must be at least 1 control step, got {args.decision_period}")
+    try:
+        check_decision_period(args.decision_period)
+    except ValueError as problem:
+        p.error(str(problem))
     if args.residual_base != "scripted" and args.action != "residual":
         p.error(f"--residual-base {args.residual_base} needs --action residual")
     check_task_arguments(p, args)
@@ -300,8 +302,7 @@ def train(args) -> dict:
                            residual_base=args.residual_base, action_cost=args.action_cost)
             if args.observation == "scaled":
                 env = ScaledObservation(env)
-            if args.decision_period > 1:
-                env = DecisionPeriod(env, args.decision_period)
+            env = DecisionPeriod(env, args.decision_period)  # K = 1: one control step a decision, as before
             env.reset(seed=args.seed * 1000 + rank)
             return env
         return make
@@ -343,8 +344,7 @@ def train(args) -> dict:
         "params_file": args.params_file, "action": args.action, "observation": args.observation,
         "residual_base": args.residual_base if args.action == "residual" else None,
         "decision_period": args.decision_period,
-        "control_steps_done": sum(getattr(e, "control_steps", 0) for e in env.envs) if args.decision_period > 1
-        else int(model.num_timesteps),
+        "control_steps_done": sum(e.control_steps for e in env.envs),
         "ent_coef": args.ent_coef, "action_cost": args.action_cost, "gamma": args.gamma, "actor_start": args.actor_start,
         "train_freq": args.train_freq, "gradient_steps": args.gradient_steps,
         "net": list(args.net), "n_envs": args.n_envs, "control_rate_hz": 50.0,
