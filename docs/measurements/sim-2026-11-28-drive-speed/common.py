@@ -21,3 +21,58 @@ def bench_sim():
     module = importlib.util.module_from_spec(spec)
     loader.exec_module(module)
     return module
+
+
+BUDGET_SECONDS = 4.0  # budget(): the seeded game's length, 2000 steps of 2 ms
+
+
+def budget(repeats: int, parts_of) -> None:
+    """Where a 2 ms fast step's microseconds go on bench_sim's target game (robot table): each part that
+    parts_of(table, mujoco_names) lists as (owner, attribute, label) timed in place by a wrapper (perf_counter), over
+    `repeats` runs of the same seeded game; per part the least of the repeats (a loaded machine only adds). Shared by
+    each round's budget.py, which names its parts."""
+    import collections
+    import time
+    import types
+
+    import mujoco
+
+    import foos_sim.simulation as simulation
+    from foos_sim.simulation import TableSimulation
+
+    steps = BUDGET_SECONDS * 500
+    bench = bench_sim()
+    table = TableSimulation(ROBOT, physics="fast")
+    plain = [bench.api_cost(table, 0, BUDGET_SECONDS) for _ in range(repeats)]
+    spent = collections.defaultdict(lambda: [0.0, 0])
+
+    def wrap(owner, name: str, label: str) -> None:
+        inner = getattr(owner, name)
+
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            result = inner(*args, **kwargs)
+            entry = spent[label]
+            entry[0] += time.perf_counter() - start
+            entry[1] += 1
+            return result
+        setattr(owner, name, timed)
+
+    # MuJoCo's functions are read-only attributes of its module: simulation sees a copy of the module's names.
+    simulation.mujoco = types.SimpleNamespace(**{k: getattr(mujoco, k) for k in dir(mujoco) if not k.startswith("__")})
+    parts = parts_of(table, simulation.mujoco)
+    for owner, name, label in parts:
+        wrap(owner, name, label)
+    runs, wrapped = collections.defaultdict(list), []
+    for _ in range(repeats):
+        spent.clear()
+        wrapped.append(bench.api_cost(table, 0, BUDGET_SECONDS))
+        for label, (seconds, calls) in spent.items():
+            runs[label].append((seconds, calls))
+    print(f"API unwrapped, least of {repeats}: {min(plain) * 1e3:.1f} ms per simulated s = {min(plain) / 500 * 1e6:.1f} us "
+          f"per 2 ms step (repeats {', '.join(f'{x * 1e3:.1f}' for x in plain)}); wrapped {min(wrapped) * 1e3:.1f}")
+    for _, _, label in parts:
+        if label in runs:
+            least, calls = min(s for s, _ in runs[label]), runs[label][0][1]
+            print(f"  {label:44s} {calls / steps:6.3f} calls/step {least / calls * 1e6:8.2f} us each "
+                  f"{least / steps * 1e6:7.2f} us per step")
