@@ -4,7 +4,10 @@ seed 0, 2 simulated s) and raw 20 kHz mj_step on the same game (1 s), each timed
 (time.process_time: the load's waiting does not count, its cache and frequency effects do). Prints the medians and
 the median of the turn-by-turn ratio.
 
-  python paired.py BEFORE_FOOS_SIM_SRC [TURNS]        # e.g. a `git archive` of the old commit's ros2_ws/src/foos_sim
+  python paired.py BEFORE_FOOS_SIM_SRC [TURNS] [robot|servo]   # e.g. a `git archive` of the old commit's ros2_ws/src/foos_sim
+
+The table (robot by default): `servo` plays the same game on params/servo_table.yaml (the default table), to show a
+change to the robot drives' code did not make it slower (an argument since sim-2026-11-28-drive-speed-7).
 """
 from __future__ import annotations
 
@@ -18,13 +21,14 @@ import types
 WORKER = "worker"
 
 
-def work() -> None:
-    from common import ROBOT, bench_sim
+def work(table_name: str) -> None:
+    from common import ROBOT, SERVO, bench_sim
 
     from foos_sim.simulation import TableSimulation
     bench = bench_sim()
     bench.time = types.SimpleNamespace(perf_counter=time.process_time)
-    table, reference = TableSimulation(ROBOT, physics="fast"), TableSimulation(ROBOT, physics="reference")
+    params = ROBOT if table_name == "robot" else SERVO
+    table, reference = TableSimulation(params, physics="fast"), TableSimulation(params, physics="reference")
     for _ in sys.stdin:
         api = bench.api_cost(table, 0, 2.0)
         raw = bench.raw_cost(reference, 0, 1.0)
@@ -33,10 +37,11 @@ def work() -> None:
 
 def main() -> None:
     before_src, turns = sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 15
+    table_name = sys.argv[3] if len(sys.argv) > 3 else "robot"
     here = os.path.dirname(os.path.abspath(__file__))
     env_after = dict(os.environ)
     env_before = dict(os.environ, PYTHONPATH=before_src + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    workers = {name: subprocess.Popen([sys.executable, os.path.abspath(__file__), WORKER], cwd=here, env=env,
+    workers = {name: subprocess.Popen([sys.executable, os.path.abspath(__file__), WORKER, table_name], cwd=here, env=env,
                                       stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
                for name, env in (("before", env_before), ("after", env_after))}
     results = {name: [] for name in workers}
@@ -56,8 +61,8 @@ def main() -> None:
               f"cheaper than raw by {m(r / a for a, r in rows):.2f}x (median of turns)")
     pairs = [b[0] / a[0] for b, a in zip(results["before"], results["after"])]
     print(f"after / before API cost, turn by turn: median {1 / m(pairs):.3f} (after is {m(pairs):.2f}x as fast); "
-          f"{turns} turns, load {os.getloadavg()[0]:.1f}")
+          f"{turns} turns, {table_name} table, load {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":
-    work() if sys.argv[1:] == [WORKER] else main()
+    work(sys.argv[2]) if sys.argv[1:2] == [WORKER] else main()
