@@ -144,7 +144,12 @@ def test_the_scene_follows_sim_node_and_the_rods_move_on_command(running):
     rods = entities(client.messages(RODS_TOPIC)[-1][1], "rod/")
     moved = rods[rod_entity_id("home", "attack")]
     assert float(metadata(moved)["rotate"]) - before.position[rotate_index] > 1.5
-    _, latest = probe.by_stamp["joints"][metadata(moved)["stamp"]]
+    # The scene may show a message newer than the probe has taken so far (both hear sim_node at 100 Hz).
+    shown_stamp, waited_until = metadata(moved)["stamp"], time.monotonic() + 2.0
+    while shown_stamp not in probe.by_stamp["joints"] and time.monotonic() < waited_until:
+        probe.spin(0.05)
+    assert shown_stamp in probe.by_stamp["joints"], f"{RODS_TOPIC} shows stamp {shown_stamp}, which the probe never heard"
+    _, latest = probe.by_stamp["joints"][shown_stamp]
     slide, rotate = latest.position[JOINT_NAMES.index("home_attack_slide")], latest.position[rotate_index]
     assert feet(moved) == pytest.approx(expected_foot_centres(params, "home", "attack", slide, rotate), abs=1e-9)
     assert not np.allclose(feet(moved), feet(first_rods[rod_entity_id("home", "attack")]), atol=0.01)
