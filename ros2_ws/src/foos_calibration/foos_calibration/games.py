@@ -53,6 +53,12 @@ MAX_CAMERA_DELAY = 0.5  # s
 CONTROL_PERIOD = 0.02  # s: the players send commands at 50 Hz, as the RL env and policy_node do
 KICK_REACH = 0.07  # m: a player kicks when the ball centre is this close to its rod line
 KICK_TIME = 0.08  # s of full-speed rotation per kick
+# How fast the players move a rod (slide m/s, rotation rad/s), whatever the drives allow: a person's kick, not a
+# robot's. These were the former servo table's limits, so the players send what they sent before the robot's
+# drives became the default. At the robot's 314 rad/s the same players spin four turns a kick and score every
+# 1-1.5 s (39-56 goals in 60 s, seed 2026, against 7 on the servo table and 9 with this cap), leaving calibration
+# few free rolls. The drive effects they are tested on (random_drive_effect) lie below these speeds.
+PLAYER_SPEED_LIMITS = (3.0, 40.0)
 REST_SPEED = 0.04  # m/s: a ball slower than this for REST_TIME is served again
 REST_TIME = 0.6
 
@@ -268,7 +274,8 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
     hidden = HiddenDrives([e for e in effects if not (in_generators and e.get("name") == "rod_acceleration_limit")],
                           sim.command_limits)
     pushed = _BallPush(sim, params, table) if effects and any(e.get("name") in TABLE_EFFECTS for e in effects) else None
-    players = [Player(team, params, sim.command_limits, rng, options.excitation) for team in TEAMS]
+    player_limits = np.minimum(sim.command_limits, np.tile(PLAYER_SPEED_LIMITS, len(RODS)))
+    players = [Player(team, params, player_limits, rng, options.excitation) for team in TEAMS]
     if style is not None:
         players = [style.player(team, player, rng) for team, player in zip(TEAMS, players)]
     sim.reset()
