@@ -54,6 +54,7 @@ def test_train_writes_model_metrics_figures_checkpoints_and_tensorboard(trained)
     run = json.loads((out / "run.json").read_text())
     assert 1000 <= run["steps_done"] < 1000 + 16 and run["algo"] == "sac"  # rollouts come in rounds of --train-freq
     assert (run["learner"], run["reward"], run["curriculum"]) == ("sbx", "skill", True)
+    assert (run["params_file"], run["drive"]) == (None, "jerk_limited")  # the default table's drives, named
     assert algo_of(out / f"{name}.zip") == ("sbx", "sac")
     assert "it/s" in proc.stderr or "step" in proc.stderr  # the progress bar
 

@@ -13,6 +13,8 @@ import gymnasium as gym
 import numpy as np
 from tqdm import tqdm
 
+from foos_sim.drive_profiles import drive_kind
+
 from .actions import ACTION_MODES
 from .commands import add_task_arguments, check_task_arguments, run_command, write_json
 from .curriculum import stage_at, stages
@@ -341,7 +343,9 @@ def train(args) -> dict:
         "learner": args.learner, "reward": args.reward, "own_goal_penalty": args.own_goal_penalty,
         "spin_penalty": args.spin_penalty, "curriculum": args.curriculum,
         "view": args.view, "opponent_view": args.opponent_view, "opponent_delay": args.opponent_delay,
-        "params_file": args.params_file, "action": args.action, "observation": args.observation,
+        # the drives trained on: since 29 Nov the default table's are a robot's, so params_file None alone no longer says
+        "params_file": args.params_file, "drive": drive_kind(env.envs[0].unwrapped.sim.params),
+        "action": args.action, "observation": args.observation,
         "residual_base": args.residual_base if args.action == "residual" else None,
         "decision_period": args.decision_period,
         "control_steps_done": sum(e.control_steps for e in env.envs),
