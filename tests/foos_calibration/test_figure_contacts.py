@@ -38,7 +38,7 @@ def play_with_truth(duration: float, seed: int, effects=()) -> dict:
     rng = np.random.default_rng(seed)
     params = {**load_params(DEFAULT_PARAMS_FILE), "effects": list(effects)}
     sim = TableSimulation(params=params)
-    players = [games.Player(team, params, sim.command_limits, rng, 0.35) for team in TEAMS]
+    players = [games.Player(team, params, games.player_limits(sim.command_limits), rng, 0.35) for team in TEAMS]
     sim.reset()
     games._serve(sim, rng)
     per_control = round(games.CONTROL_PERIOD / sim.timestep)

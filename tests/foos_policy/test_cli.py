@@ -45,7 +45,9 @@ def test_train_writes_model_metrics_figures_checkpoints_and_tensorboard(trained)
     assert all(float(b["wall_s"]) >= float(a["wall_s"]) for a, b in zip(rows, rows[1:]))
     returns = np.array([float(r["return"]) for r in rows])
     # the paper's smoothing: Return50 is the running mean of the last (up to) 50 returns
-    assert float(rows[-1]["Return50"]) == pytest.approx(returns[-50:].mean(), rel=1e-4)
+    # (the CSV keeps 6 significant digits of each return and of their mean: where the returns nearly cancel, the
+    # mean's own rounding is no guide, so the tolerance is the returns' rounding)
+    assert float(rows[-1]["Return50"]) == pytest.approx(returns[-50:].mean(), abs=1e-5 * np.abs(returns[-50:]).max())
     assert {float(r["win"]) for r in rows} <= {0.0, 1.0}
     for png in ("return50", "eplen50", "winrate50", "loserate50", "termgoal50", "return_vs_length", "learning_curve"):
         assert (out / "figures" / f"{png}.png").stat().st_size > 1000

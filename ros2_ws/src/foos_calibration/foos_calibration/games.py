@@ -189,6 +189,11 @@ class HiddenDrives:
         return out
 
 
+def player_limits(command_limits: np.ndarray) -> np.ndarray:
+    """What a player commands at most on drives with these limits (a team's 8): PLAYER_SPEED_LIMITS or the drives'."""
+    return np.minimum(np.asarray(command_limits, dtype=float), np.tile(PLAYER_SPEED_LIMITS, len(RODS)))
+
+
 class Player:
     """One team's rods: track the ball's x, kick near the rod line, random bursts and spins."""
 
@@ -274,8 +279,7 @@ def play(effects: Sequence[dict], options: GameOptions = GameOptions(), params: 
     hidden = HiddenDrives([e for e in effects if not (in_generators and e.get("name") == "rod_acceleration_limit")],
                           sim.command_limits)
     pushed = _BallPush(sim, params, table) if effects and any(e.get("name") in TABLE_EFFECTS for e in effects) else None
-    player_limits = np.minimum(sim.command_limits, np.tile(PLAYER_SPEED_LIMITS, len(RODS)))
-    players = [Player(team, params, player_limits, rng, options.excitation) for team in TEAMS]
+    players = [Player(team, params, player_limits(sim.command_limits), rng, options.excitation) for team in TEAMS]
     if style is not None:
         players = [style.player(team, player, rng) for team, player in zip(TEAMS, players)]
     sim.reset()
