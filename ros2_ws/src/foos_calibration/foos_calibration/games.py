@@ -54,10 +54,10 @@ CONTROL_PERIOD = 0.02  # s: the players send commands at 50 Hz, as the RL env an
 KICK_REACH = 0.07  # m: a player kicks when the ball centre is this close to its rod line
 KICK_TIME = 0.08  # s of full-speed rotation per kick
 # How fast the players move a rod (slide m/s, rotation rad/s), whatever the drives allow: a person's kick, not a
-# robot's. These were the former servo table's limits, so the players send what they sent before the robot's
-# drives became the default. At the robot's 314 rad/s the same players spin four turns a kick and score every
-# 1-1.5 s (39-56 goals in 60 s, seed 2026, against 7 on the servo table and 9 with this cap), leaving calibration
-# few free rolls. The drive effects they are tested on (random_drive_effect) lie below these speeds.
+# robot's. These are the former servo table's limits, so on that table the players command what they always did.
+# At the robot's 314 rad/s the same players spin four turns a kick and score every 1.5-2 s (34-41 goals in 60 s,
+# seeds 1-5, against 6-14 with this cap and 4-12 on the servo table: docs/measurements/sim-2026-11-29-robot-default.md),
+# leaving calibration few free rolls. The drive effects they are tested on (random_drive_effect) lie below these speeds.
 PLAYER_SPEED_LIMITS = (3.0, 40.0)
 REST_SPEED = 0.04  # m/s: a ball slower than this for REST_TIME is served again
 REST_TIME = 0.6
