@@ -52,6 +52,12 @@ class Listener:
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=0.005)
 
+    def spin_until(self, done, timeout: float) -> None:
+        """Spin until done() holds or timeout s have passed (the caller checks which)."""
+        end = time.monotonic() + timeout
+        while not done() and time.monotonic() < end:
+            self.spin(0.05)
+
     def close(self) -> None:
         self.executor.shutdown()  # it lets go of the node first, before the node's entities go
         self.node.destroy_node()
@@ -86,9 +92,8 @@ def running():
 def test_the_scene_follows_sim_node_and_the_rods_move_on_command(running):
     sim, viewer, probe, client = running
     params = load_params()
-    heard = time.monotonic() + 30.0  # until the probe has heard sim_node for a second (discovery, start-up)
-    while time.monotonic() < heard and min(len(kind) for kind in probe.by_stamp.values()) < 100:
-        probe.spin(0.1)
+    # until the probe has heard sim_node for a second (discovery, start-up)
+    probe.spin_until(lambda: min(len(kind) for kind in probe.by_stamp.values()) >= 100, 30.0)
     client.wait_for(TABLE_TOPIC)
     first_rods = entities(client.wait_for(RODS_TOPIC)[-1][1], "rod/")
     figures = {key: len(entity.cubes) // 2 for key, entity in first_rods.items()}
@@ -145,9 +150,8 @@ def test_the_scene_follows_sim_node_and_the_rods_move_on_command(running):
     moved = rods[rod_entity_id("home", "attack")]
     assert float(metadata(moved)["rotate"]) - before.position[rotate_index] > 1.5
     # The scene may show a message newer than the probe has taken so far (both hear sim_node at 100 Hz).
-    shown_stamp, waited_until = metadata(moved)["stamp"], time.monotonic() + 2.0
-    while shown_stamp not in probe.by_stamp["joints"] and time.monotonic() < waited_until:
-        probe.spin(0.05)
+    shown_stamp = metadata(moved)["stamp"]
+    probe.spin_until(lambda: shown_stamp in probe.by_stamp["joints"], 2.0)
     assert shown_stamp in probe.by_stamp["joints"], f"{RODS_TOPIC} shows stamp {shown_stamp}, which the probe never heard"
     _, latest = probe.by_stamp["joints"][shown_stamp]
     slide, rotate = latest.position[JOINT_NAMES.index("home_attack_slide")], latest.position[rotate_index]
